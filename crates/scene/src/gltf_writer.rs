@@ -1,0 +1,1 @@
+//! A small glTF writer for generated scenes (assets, tests). (Stub: being implemented.)

@@ -1,0 +1,125 @@
+//! The flattened scene: world-space triangles plus everything they refer to by index.
+use crate::{Rgb, bsdf::Material, camera::Camera, light::PunctualLight, medium::Medium};
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// Index into [`Scene::media`]; `None` means vacuum.
+pub type MediumId = Option<u32>;
+
+/// Which medium lies on each side of a triangle that bounds a medium region.
+/// "Inside" is the side the geometric normal points away from (glTF winding: counter-clockwise
+/// seen from outside), "outside" the side it points to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MediumInterface {
+    pub inside: MediumId,
+    pub outside: MediumId,
+}
+
+impl MediumInterface {
+    /// The medium a ray travelling along `dir` enters when it crosses a triangle with geometric normal `ng`.
+    #[inline]
+    pub fn entered(&self, ng: Vec3, dir: Vec3) -> MediumId {
+        if dir.dot(ng) < 0.0 { self.inside } else { self.outside }
+    }
+}
+
+/// One world-space triangle.
+#[derive(Clone, Debug)]
+pub struct Triangle {
+    pub p: [Vec3; 3],
+    /// Per-vertex shading normals, when the glTF primitive had them.
+    pub n: Option<[Vec3; 3]>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// `Some` when the triangle is part of the closed mesh that bounds a medium.
+    pub interface: Option<MediumInterface>,
+    /// Index into [`Scene::meshes`] (for messages and for identifying medium regions).
+    pub mesh: u32,
+}
+
+impl Triangle {
+    /// Unnormalized geometric normal (p1−p0)×(p2−p0); its length is twice the area.
+    #[inline]
+    pub fn cross(&self) -> Vec3 {
+        (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
+    }
+
+    #[inline]
+    pub fn area(&self) -> f32 {
+        0.5 * self.cross().length()
+    }
+
+    /// Shading normal at barycentrics (b1, b2) (weights of p1 and p2); the geometric normal if none.
+    pub fn shading_normal(&self, b1: f32, b2: f32) -> Vec3 {
+        let ng = self.cross().normalize_or_zero();
+        match self.n {
+            Some(n) => {
+                let s = (n[0] * (1.0 - b1 - b2) + n[1] * b1 + n[2] * b2).normalize_or_zero();
+                if s == Vec3::ZERO { ng } else { s }
+            }
+            None => ng,
+        }
+    }
+}
+
+/// Render settings from the sidecar's `[render]` table (or defaults).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// The whole scene, ready for rendering.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The file the scene was loaded from (the TOML sidecar or the glTF).
+    pub source: PathBuf,
+    pub triangles: Vec<Triangle>,
+    /// Names of the glTF meshes, indexed by [`Triangle::mesh`].
+    pub meshes: Vec<String>,
+    pub materials: Vec<Material>,
+    pub media: Vec<Medium>,
+    pub lights: Vec<PunctualLight>,
+    pub camera: Camera,
+    pub render: RenderSettings,
+    /// Warnings collected while loading (ignored textures, skipped degenerate triangles...).
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Axis-aligned bounds of all triangles and punctual lights (and the camera).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for t in &self.triangles {
+            for p in t.p {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        for l in &self.lights {
+            if let Some(p) = l.position() {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        lo = lo.min(self.camera.position());
+        hi = hi.max(self.camera.position());
+        (lo, hi)
+    }
+
+    /// Emitted radiance of a material, zero for non-emitters.
+    pub fn emission(&self, material: u32) -> Rgb {
+        self.materials[material as usize].emission
+    }
+
+    /// The medium with name `name`, if any.
+    pub fn medium_index(&self, name: &str) -> Option<u32> {
+        self.media.iter().position(|m| m.name == name).map(|i| i as u32)
+    }
+
+    /// True when some medium exists.
+    pub fn has_media(&self) -> bool {
+        !self.media.is_empty()
+    }
+}
