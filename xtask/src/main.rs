@@ -1,1 +1,153 @@
-fn main() {}
+//! `cargo xtask …`: project chores that are code, not shell scripts.
+//!
+//! * `assets [--check]`: (re)generate the bundled scenes in `assets/scenes/`; with `--check`,
+//!   only verify that the committed files are exactly what the generator writes.
+//! * `bad-scenes [--check]`: the same for the generated files of the broken-scene corpus in
+//!   `tests/bad_scenes/`.
+//! * `ci`: make sure Mesa lavapipe is installed (apt-get, when missing), check the generated
+//!   files, then run the whole test suite in release mode.
+use anyhow::{Context, Result, bail};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+mod assets;
+mod bad_scenes;
+
+const USAGE: &str = "usage: cargo xtask <command>
+
+commands:
+  assets [--check]      write the bundled scenes to assets/scenes/ (--check: verify only)
+  bad-scenes [--check]  write the generated broken-scene fixtures to tests/bad_scenes/
+  ci                    install lavapipe if missing, check generated files, run all tests";
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let check = args.iter().skip(1).any(|a| a == "--check");
+    if let Some(extra) = args.iter().skip(1).find(|a| *a != "--check") {
+        bail!("unknown argument '{extra}'\n\n{USAGE}");
+    }
+    match args.first().map(String::as_str) {
+        Some("assets") => sync(&assets::files(), check),
+        Some("bad-scenes") => sync(&bad_scenes::files(), check),
+        Some("ci") => ci(),
+        Some("-h" | "--help" | "help") => {
+            println!("{USAGE}");
+            Ok(())
+        }
+        Some(other) => bail!("unknown command '{other}'\n\n{USAGE}"),
+        None => bail!("{USAGE}"),
+    }
+}
+
+/// The workspace root (the parent of this crate's directory).
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives in the workspace")
+        .to_path_buf()
+}
+
+/// Writes `files` under the workspace root, or with `check` only compares them.
+fn sync(files: &[(String, Vec<u8>)], check: bool) -> Result<()> {
+    let root = root();
+    let mut stale = Vec::new();
+    for (rel, bytes) in files {
+        let path = root.join(rel);
+        let current = std::fs::read(&path).ok();
+        if current.as_deref() == Some(bytes.as_slice()) {
+            continue;
+        }
+        if check {
+            stale.push(rel.clone());
+        } else {
+            if let Some(dir) = path.parent() {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+            }
+            std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+            println!("wrote {rel} ({} bytes)", bytes.len());
+        }
+    }
+    if !stale.is_empty() {
+        bail!(
+            "out of date (run `cargo xtask assets` / `cargo xtask bad-scenes`): {}",
+            stale.join(", ")
+        );
+    }
+    if check {
+        println!("{} generated files up to date", files.len());
+    }
+    Ok(())
+}
+
+const LAVAPIPE_ICD: &str = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
+
+fn run(cmd: &mut Command) -> Result<()> {
+    eprintln!("+ {cmd:?}");
+    let status = cmd.status().with_context(|| format!("running {cmd:?}"))?;
+    if !status.success() {
+        bail!("{cmd:?} failed: {status}");
+    }
+    Ok(())
+}
+
+fn ci() -> Result<()> {
+    if !Path::new(LAVAPIPE_ICD).exists() {
+        eprintln!(
+            "Mesa lavapipe not found ({LAVAPIPE_ICD}); installing mesa-vulkan-drivers with apt-get"
+        );
+        let is_root = Command::new("id")
+            .arg("-u")
+            .output()
+            .map(|o| o.stdout.starts_with(b"0"))
+            .unwrap_or(false);
+        let apt = |args: &[&str]| {
+            let mut c = if is_root {
+                Command::new("apt-get")
+            } else {
+                Command::new("sudo")
+            };
+            if !is_root {
+                c.arg("apt-get");
+            }
+            c.args(args).env("DEBIAN_FRONTEND", "noninteractive");
+            c
+        };
+        run(&mut apt(&["update"]))?;
+        run(&mut apt(&[
+            "install",
+            "-y",
+            "--no-install-recommends",
+            "mesa-vulkan-drivers",
+        ]))?;
+    }
+    sync(&assets::files(), true)?;
+    sync(&bad_scenes::files(), true)?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run(Command::new(cargo)
+        .current_dir(root())
+        .args(["test", "--release", "--workspace"]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The committed assets and fixtures are exactly what the generators write.
+    #[test]
+    fn generated_files_are_committed_and_up_to_date() {
+        for (rel, bytes) in assets::files().iter().chain(bad_scenes::files().iter()) {
+            let on_disk = std::fs::read(root().join(rel)).unwrap_or_default();
+            assert!(
+                on_disk == *bytes,
+                "{rel} differs from the generator's output; run `cargo xtask assets` and `cargo xtask bad-scenes`"
+            );
+        }
+    }
+
+    #[test]
+    fn generation_is_deterministic() {
+        assert_eq!(assets::files(), assets::files());
+        assert_eq!(bad_scenes::files(), bad_scenes::files());
+    }
+}

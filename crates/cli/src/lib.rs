@@ -1,1 +1,285 @@
-pub fn main() -> std::process::ExitCode { std::process::ExitCode::SUCCESS }
+//! The `beamlight` command line: `render`, `compare`, `info`.
+use anyhow::{Context, Result, bail};
+use beamlight_render::{Budget, Method, RenderOptions, compare, output};
+use beamlight_scene::{bsdf::Bsdf, load::load_scene};
+use beamlight_trace::{TraceScene, pt::PathTracerSettings};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::{
+    io::IsTerminal,
+    path::{Path, PathBuf},
+    process::ExitCode,
+    time::{Duration, Instant},
+};
+
+#[derive(Parser)]
+#[command(name = "beamlight", version, about = "Progressive virtual beam lights: a renderer for participating media")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (TOML sidecar, or a .gltf/.glb alone) to a linear-RGB OpenEXR image.
+    Render(RenderArgs),
+    /// Compare two EXR images: RMSE, relMSE, MAE and maximum absolute error (B is the reference).
+    Compare { a: PathBuf, b: PathBuf },
+    /// Describe a scene: geometry, materials, media, emitters, backend.
+    Info { scene: PathBuf },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum MethodArg {
+    Vbl,
+    Vrl,
+    VrlClamped,
+    Pt,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum BackendArg {
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    scene: PathBuf,
+    /// Output OpenEXR file (float32 linear RGB).
+    #[arg(short, long)]
+    output: PathBuf,
+    #[arg(long, value_enum, default_value = "vbl")]
+    method: MethodArg,
+    /// Number of progressive passes.
+    #[arg(long, conflicts_with_all = ["spp", "time"])]
+    passes: Option<u64>,
+    /// Samples per pixel (for `pt`, the same as passes).
+    #[arg(long, conflicts_with = "time")]
+    spp: Option<u64>,
+    /// Wall-clock budget in seconds, start-up included.
+    #[arg(long)]
+    time: Option<f64>,
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: BackendArg,
+    /// Override the scene's image width.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Override the scene's image height.
+    #[arg(long)]
+    height: Option<u32>,
+    /// Also write a tonemapped sRGB PNG preview.
+    #[arg(long)]
+    preview: Option<PathBuf>,
+    /// Exposure of the preview in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Maximum scattering events per path (`pt`); 1 = direct light / single scattering only.
+    #[arg(long)]
+    max_depth: Option<u32>,
+}
+
+/// Runs the command line; errors are printed as one clear message and give exit code 1.
+pub fn main() -> ExitCode {
+    let start = Instant::now();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render(args, start),
+        Command::Compare { a, b } => compare_cmd(&a, &b),
+        Command::Info { scene } => info(&scene),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+const DEFAULT_PASSES: u64 = 64;
+
+fn render(args: RenderArgs, start: Instant) -> Result<()> {
+    if let Some(n) = args.threads {
+        rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global().context("cannot set up the thread pool")?;
+    }
+    let method = match args.method {
+        MethodArg::Pt => Method::Pt,
+        MethodArg::Vrl => Method::Vrl,
+        MethodArg::VrlClamped => Method::VrlClamped,
+        MethodArg::Vbl => Method::Vbl,
+    };
+    if method != Method::Pt {
+        bail!(
+            "--method {} is not implemented yet; use --method pt (the reference path tracer)",
+            method.name()
+        );
+    }
+    let backend = match args.backend {
+        BackendArg::Gpu => bail!("--backend gpu: the path tracer runs on the CPU only (GPU kernels serve the many-light methods)"),
+        BackendArg::Auto | BackendArg::Cpu => "cpu",
+    };
+    let budget = match (args.passes.or(args.spp), args.time) {
+        (Some(0), _) => bail!("--passes/--spp must be at least 1"),
+        (Some(n), _) => Budget::Passes(n),
+        (None, Some(t)) if t.is_finite() && t > 0.0 => Budget::Time(Duration::from_secs_f64(t)),
+        (None, Some(t)) => bail!("--time must be a positive number of seconds, got {t}"),
+        (None, None) => Budget::Passes(DEFAULT_PASSES),
+    };
+    for (flag, v) in [("--width", args.width), ("--height", args.height)] {
+        if let Some(v) = v {
+            if v == 0 || v > 16384 {
+                bail!("{flag} {v} is out of range (1..=16384)");
+            }
+        }
+    }
+    check_output_path(&args.output, "exr")?;
+    if let Some(p) = &args.preview {
+        check_output_path(p, "png")?;
+    }
+
+    let scene = load_scene(&args.scene)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let width = args.width.unwrap_or(scene.render.width);
+    let height = args.height.unwrap_or(scene.render.height);
+    let ts = TraceScene::new(scene);
+    eprintln!(
+        "beamlight: {} ({} triangles), {width}x{height}, method {}, backend {backend}",
+        args.scene.display(),
+        ts.scene.triangles.len(),
+        method.name()
+    );
+
+    let opts = RenderOptions {
+        method,
+        width,
+        height,
+        budget,
+        seed: args.seed,
+        first_pass: 0,
+        path_tracer: PathTracerSettings { max_depth: args.max_depth, ..Default::default() },
+        start,
+    };
+    let bar = progress_bar(&budget);
+    let result = beamlight_render::render(&ts, &opts, |done, _| bar.set_position(done)).map_err(anyhow::Error::msg)?;
+    bar.finish_and_clear();
+
+    let image = result.film.image();
+    let secs = result.elapsed.as_secs_f64();
+    let metadata = [
+        ("beamlight.method", method.name().to_string()),
+        ("beamlight.passes", result.passes.to_string()),
+        ("beamlight.spp", result.passes.to_string()),
+        ("beamlight.seed", args.seed.to_string()),
+        ("beamlight.render_seconds", format!("{secs:.3}")),
+        ("beamlight.scene", args.scene.display().to_string()),
+        ("beamlight.backend", backend.to_string()),
+        ("beamlight.rejected_samples", result.film.rejected.to_string()),
+    ];
+    output::write_exr(&args.output, &image, &metadata)?;
+    if let Some(p) = &args.preview {
+        output::write_png(p, &image, args.exposure)?;
+    }
+    if result.film.rejected > 0 {
+        eprintln!("warning: {} non-finite samples were dropped (please report this scene)", result.film.rejected);
+    }
+    eprintln!(
+        "done: {} in {secs:.2} s, {} spp, {:.3} Msamples/s -> {}",
+        method.name(),
+        result.passes,
+        (result.passes * width as u64 * height as u64) as f64 / secs.max(1e-9) / 1e6,
+        args.output.display()
+    );
+    Ok(())
+}
+
+fn check_output_path(p: &Path, ext: &str) -> Result<()> {
+    match p.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case(ext) => Ok(()),
+        _ => bail!("{}: output file must end in .{ext}", p.display()),
+    }
+}
+
+fn progress_bar(budget: &Budget) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let style = "{elapsed_precise} [{bar:40}] {pos}/{len} passes ({per_sec}, eta {eta})";
+    match budget {
+        Budget::Passes(n) => indicatif::ProgressBar::new(*n)
+            .with_style(indicatif::ProgressStyle::with_template(style).unwrap().progress_chars("=> ")),
+        Budget::Time(_) => indicatif::ProgressBar::new_spinner()
+            .with_style(indicatif::ProgressStyle::with_template("{elapsed_precise} {spinner} {pos} passes ({per_sec})").unwrap()),
+    }
+}
+
+fn compare_cmd(a: &Path, b: &Path) -> Result<()> {
+    let (ia, _) = output::read_exr(a)?;
+    let (ib, _) = output::read_exr(b)?;
+    let m = compare::compare(&ia, &ib).map_err(|e| anyhow::anyhow!("{} vs {}: {e}", a.display(), b.display()))?;
+    println!("RMSE    {:.6e}", m.rmse);
+    println!("relMSE  {:.6e}", m.rel_mse);
+    println!("MAE     {:.6e}", m.mae);
+    println!("max     {:.6e}", m.max_abs);
+    Ok(())
+}
+
+fn info(path: &Path) -> Result<()> {
+    let scene = load_scene(path)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let ts = TraceScene::new(scene);
+    let s = &ts.scene;
+    println!("scene       {}", path.display());
+    println!("image       {}x{}", s.render.width, s.render.height);
+    let cam = &s.camera;
+    println!(
+        "camera      {} at {:?}, yfov {:.1}°",
+        cam.name.as_deref().unwrap_or("(default)"),
+        cam.position(),
+        cam.yfov.to_degrees()
+    );
+    let (lo, hi) = s.bounds();
+    println!("bounds      {lo:?} .. {hi:?}");
+    println!("triangles   {}", s.triangles.len());
+    let emissive = s.triangles.iter().filter(|t| s.materials[t.material as usize].is_emissive()).count();
+    println!("emitters    {emissive} emissive triangles, {} punctual lights", s.lights.len());
+    println!("materials");
+    for m in &s.materials {
+        let kind = match &m.bsdf {
+            None => "medium boundary (index-matched)".to_string(),
+            Some(Bsdf::Lambert { albedo }) => format!("lambert albedo {albedo:?}"),
+            Some(Bsdf::Phong { diffuse, specular, exponent }) => {
+                format!("phong diffuse {diffuse:?} specular {specular:?} exponent {exponent}")
+            }
+            Some(Bsdf::Mirror { reflectance }) => format!("mirror {reflectance:?}"),
+            Some(Bsdf::Glass { ior, .. }) => format!("glass ior {ior}"),
+        };
+        let emit = if m.is_emissive() { format!(", emits {:?}", m.emission) } else { String::new() };
+        println!("  {:<20} {kind}{emit}", m.name);
+    }
+    println!("media");
+    for (i, m) in s.media.iter().enumerate() {
+        let region = if s.global_medium == Some(i as u32) { "global" } else { "bounded" };
+        let kind = match &m.density {
+            None => "homogeneous".to_string(),
+            Some(g) => format!("grid {}x{}x{}", g.res.x, g.res.y, g.res.z),
+        };
+        println!(
+            "  {:<20} {region}, {kind}, sigma_s {:?}, sigma_a {:?}, g {}",
+            m.name, m.sigma_s, m.sigma_a, m.g
+        );
+    }
+    let cam_medium = ts.camera_medium.map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
+    println!("camera in   {cam_medium}");
+    println!("backend     cpu (the path tracer runs on the CPU)");
+    Ok(())
+}

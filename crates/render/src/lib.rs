@@ -1,1 +1,11 @@
-//! orchestrator
+//! beamlight-render: the orchestrator. It owns the progressive loop (pass after pass until a
+//! budget runs out), the per-pixel accumulators, and image input/output.
+//!
+//! Data flows one way: scene → tracing → estimators → accumulators ([`film`]) → image ([`output`]).
+pub mod compare;
+pub mod film;
+pub mod output;
+pub mod progressive;
+
+pub use film::{Film, Image};
+pub use progressive::{Budget, Method, RenderOptions, RenderResult, render};

@@ -1,20 +1,332 @@
-//! Sampling routines shared by every integrator. (Stub: being implemented.)
+//! Sampling routines shared by every integrator.
+//!
+//! Every warp takes uniform numbers in [0, 1)² and has a matching `*_pdf` (solid angle for
+//! directions). The warps are written so that no input in [0, 1]² produces NaN or a non-unit
+//! vector: square roots get arguments clamped at zero and `1 − cos²` is formed as a product of
+//! two factors whenever one of them is known exactly.
 use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, TAU};
 
-pub fn uniform_sphere(u: Vec2) -> Vec3 { todo!("{u}") }
-pub fn cosine_hemisphere(u: Vec2) -> Vec3 { todo!("{u}") }
-/// Barycentrics (b1, b2) uniform over a triangle.
-pub fn uniform_triangle(u: Vec2) -> Vec2 { todo!("{u}") }
-pub fn power_heuristic(f_pdf: f32, g_pdf: f32) -> f32 { todo!("{f_pdf}{g_pdf}") }
+/// The largest f32 below 1; uniform numbers are clamped to it where 1 would select past the end.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Uniform direction on the unit sphere.
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    // sin²θ = (1 − z)(1 + z) = 4u(1 − u): exact near both poles, unlike 1 − z².
+    let r = 2.0 * (u.x * (1.0 - u.x)).max(0.0).sqrt();
+    let phi = TAU * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Solid-angle pdf of [`uniform_sphere`]: 1 / (4π).
+pub fn uniform_sphere_pdf() -> f32 {
+    0.25 * FRAC_1_PI
+}
+
+/// Shirley–Chiu concentric map from the square to the unit disk (keeps strata compact,
+/// which plain polar mapping does not).
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Cosine-weighted direction on the hemisphere z ≥ 0 (local frame, z up); pdf = cos θ / π.
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = concentric_disk(u);
+    // Malley's method: lift the uniform disk point to the hemisphere.
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Solid-angle pdf of [`cosine_hemisphere`] for a direction with cos θ = `cos_theta`
+/// (zero below the horizon).
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// Uniform direction inside the cone around +z with cos θ ≥ `cos_max` (local frame).
+/// For a degenerate cone (`cos_max` ≥ 1) it returns +z.
+pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    // 1 − cos θ is uniform on [0, 1 − cos_max]; keeping it (not cos θ) preserves precision
+    // for the tiny cones subtended by distant spherical lights.
+    let one_minus_cos_max = (1.0 - cos_max).clamp(0.0, 2.0);
+    let one_minus_cos = u.x * one_minus_cos_max;
+    let cos_theta = 1.0 - one_minus_cos;
+    let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+    let phi = TAU * u.y;
+    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+}
+
+/// Solid-angle pdf of [`uniform_cone`]: 1 / (2π (1 − cos_max)); +∞ for a degenerate cone.
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    let one_minus_cos_max = (1.0 - cos_max).clamp(0.0, 2.0);
+    if one_minus_cos_max == 0.0 {
+        return f32::INFINITY;
+    }
+    1.0 / (TAU * one_minus_cos_max)
+}
+
+/// Barycentrics (b1, b2) uniform over a triangle: the weights of p1 and p2 (p0 gets 1 − b1 − b2).
+///
+/// Heitz, "A Low-Distortion Map Between Triangle and Square" (2019): area preserving like the
+/// square-root map, but neighbouring samples stay neighbours, so stratification survives.
+/// The area pdf is 1 / area.
+pub fn uniform_triangle(u: Vec2) -> Vec2 {
+    let (b1, b2) = if u.x < u.y {
+        let b1 = 0.5 * u.x;
+        (b1, u.y - b1)
+    } else {
+        let b2 = 0.5 * u.y;
+        (u.x - b2, b2)
+    };
+    Vec2::new(b1, b2)
+}
+
+/// Veach's power heuristic with β = 2: f² / (f² + g²), the MIS weight of the strategy with
+/// pdf `f_pdf` against one with pdf `g_pdf`.
+///
+/// Never NaN: an infinite `f_pdf` (delta) gets weight 1, a zero (or negative/NaN) `f_pdf` gets 0
+/// (including when both are zero), and the squares cannot overflow because only the ratio of
+/// the smaller pdf to the larger one is squared.
+pub fn power_heuristic(f_pdf: f32, g_pdf: f32) -> f32 {
+    if !(f_pdf > 0.0) {
+        return 0.0;
+    }
+    if f_pdf.is_infinite() || !(g_pdf > 0.0) {
+        return 1.0;
+    }
+    if f_pdf >= g_pdf {
+        let r = g_pdf / f_pdf;
+        1.0 / (1.0 + r * r)
+    } else {
+        let r = f_pdf / g_pdf;
+        let r2 = r * r;
+        r2 / (1.0 + r2)
+    }
+}
 
 /// Piecewise-constant 1-D distribution over `n` discrete items.
+///
+/// `cdf` has `n + 1` entries, `cdf[0] = 0` and (unless `total` is 0) `cdf[n] = 1`; item `i` is
+/// chosen with probability `cdf[i + 1] − cdf[i]`. `total` is the sum of the (sanitized) weights.
+///
+/// **All-zero weights** (or no weights at all): `total == 0`, every `cdf` entry is 0, every
+/// `pmf` is 0 and [`sample`](Self::sample) returns `(0, 0.0)`. A pmf of 0 means "nothing to
+/// sample": callers must check `total > 0` (or the returned pmf) before using the index.
 #[derive(Clone, Debug)]
-pub struct Distribution1D { pub cdf: Vec<f32>, pub total: f32 }
+pub struct Distribution1D {
+    pub cdf: Vec<f32>,
+    pub total: f32,
+}
+
 impl Distribution1D {
-    pub fn new(weights: &[f32]) -> Self { todo!("{weights:?}") }
-    /// Returns (index, probability of that index).
-    pub fn sample(&self, u: f32) -> (usize, f32) { todo!("{u}") }
-    pub fn pmf(&self, i: usize) -> f32 { todo!("{i}") }
-    pub fn len(&self) -> usize { self.cdf.len().saturating_sub(1) }
-    pub fn is_empty(&self) -> bool { self.len() == 0 }
+    /// Builds the distribution. Weights that are negative, NaN or infinite count as 0 (a bad
+    /// emitter must not poison the whole light distribution).
+    pub fn new(weights: &[f32]) -> Self {
+        // Accumulate in f64 so that long lists of small weights keep their share, and so that
+        // a zero weight leaves the running sum bit-identical (its item can never be chosen).
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        let mut sum = 0.0f64;
+        cdf.push(0.0f64);
+        for &w in weights {
+            if w.is_finite() && w > 0.0 {
+                sum += w as f64;
+            }
+            cdf.push(sum);
+        }
+        if sum <= 0.0 {
+            return Self {
+                cdf: vec![0.0; weights.len() + 1],
+                total: 0.0,
+            };
+        }
+        let mut cdf: Vec<f32> = cdf.iter().map(|&c| (c / sum) as f32).collect();
+        // Exactly 1 at the end regardless of rounding, so any u < 1 lands on an item.
+        *cdf.last_mut().unwrap() = 1.0;
+        Self {
+            cdf,
+            total: sum as f32,
+        }
+    }
+
+    /// Returns (index, probability of that index). Never returns an index with zero weight
+    /// (unless `total` is 0, see the type's documentation).
+    pub fn sample(&self, u: f32) -> (usize, f32) {
+        if !(self.total > 0.0) || self.is_empty() {
+            return (0, 0.0);
+        }
+        // NaN → 0, and 1 would select past the last item.
+        let u = if u >= 0.0 {
+            u.min(ONE_MINUS_EPSILON)
+        } else {
+            0.0
+        };
+        // The largest i with cdf[i] ≤ u; then cdf[i] ≤ u < cdf[i + 1], so item i has a
+        // non-empty interval, i.e. a positive weight.
+        let i = self.cdf.partition_point(|&c| c <= u) - 1;
+        let i = i.min(self.len() - 1);
+        (i, self.pmf(i))
+    }
+
+    /// Probability of choosing item `i` (0 when out of range).
+    pub fn pmf(&self, i: usize) -> f32 {
+        if i + 1 >= self.cdf.len() {
+            return 0.0;
+        }
+        self.cdf[i + 1] - self.cdf[i]
+    }
+
+    pub fn len(&self) -> usize {
+        self.cdf.len().saturating_sub(1)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn corner_inputs() -> Vec<Vec2> {
+        let vals = [0.0, 1e-7, 0.25, 0.5, ONE_MINUS_EPSILON, 1.0];
+        let mut v = Vec::new();
+        for &a in &vals {
+            for &b in &vals {
+                v.push(Vec2::new(a, b));
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn warps_produce_unit_vectors_at_the_corners_of_the_square() {
+        for u in corner_inputs() {
+            for (name, w) in [
+                ("sphere", uniform_sphere(u)),
+                ("cosine", cosine_hemisphere(u)),
+                ("cone", uniform_cone(u, 0.3)),
+                ("tiny cone", uniform_cone(u, 1.0 - 1e-7)),
+                ("full cone", uniform_cone(u, -1.0)),
+                ("degenerate cone", uniform_cone(u, 1.0)),
+            ] {
+                assert!(w.is_finite(), "{name} {u}: {w}");
+                assert!((w.length() - 1.0).abs() < 1e-5, "{name} {u}: {w}");
+            }
+            assert!(cosine_hemisphere(u).z >= 0.0);
+            assert!(uniform_cone(u, 0.3).z >= 0.3 - 1e-6);
+        }
+    }
+
+    #[test]
+    fn tiny_cone_keeps_its_opening_angle() {
+        // cos_max = 1 − 1e-6 ⇒ θmax ≈ 1.414e-3; the edge sample must land on the edge.
+        let cos_max = 1.0 - 1e-6;
+        let w = uniform_cone(Vec2::new(1.0, 0.0), cos_max);
+        let theta = w.truncate().length().atan2(w.z);
+        let theta_max = (2.0f64 * (1.0 - cos_max as f64)).sqrt() as f32;
+        assert!(
+            (theta / theta_max - 1.0).abs() < 1e-3,
+            "{theta} vs {theta_max}"
+        );
+        assert!(uniform_cone_pdf(cos_max).is_finite());
+        assert_eq!(uniform_cone_pdf(1.0), f32::INFINITY);
+    }
+
+    #[test]
+    fn triangle_barycentrics_stay_inside() {
+        for u in corner_inputs() {
+            let b = uniform_triangle(u);
+            assert!(
+                b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6,
+                "{u} -> {b}"
+            );
+        }
+    }
+
+    #[test]
+    fn power_heuristic_is_never_nan() {
+        let inf = f32::INFINITY;
+        let cases = [
+            (0.0, 0.0, 0.0),
+            (inf, 0.0, 1.0),
+            (inf, inf, 1.0),
+            (inf, 3.0, 1.0),
+            (3.0, inf, 0.0),
+            (0.0, 5.0, 0.0),
+            (5.0, 0.0, 1.0),
+            (2.0, 2.0, 0.5),
+            (1e30, 1e30, 0.5),
+            (1e-30, 1e-30, 0.5),
+            (f32::NAN, 1.0, 0.0),
+            (1.0, f32::NAN, 1.0),
+        ];
+        for (f, g, want) in cases {
+            let w = power_heuristic(f, g);
+            assert!((w - want).abs() < 1e-6, "({f}, {g}) -> {w}, want {want}");
+        }
+        let w = power_heuristic(1.0, 3.0);
+        assert!((w - 0.1).abs() < 1e-6);
+        assert!((power_heuristic(1.0, 3.0) + power_heuristic(3.0, 1.0) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn distribution_never_picks_zero_weights() {
+        let d = Distribution1D::new(&[0.0, 1.0, 0.0, f32::NAN, -2.0, 3.0, 0.0, f32::INFINITY]);
+        assert_eq!(d.len(), 8);
+        assert_eq!(d.total, 4.0);
+        for u in [
+            0.0,
+            1e-9,
+            0.25 - 1e-7,
+            0.25,
+            0.5,
+            ONE_MINUS_EPSILON,
+            1.0,
+            2.0,
+            -1.0,
+            f32::NAN,
+        ] {
+            let (i, p) = d.sample(u);
+            assert!(i == 1 || i == 5, "u = {u} picked {i}");
+            assert_eq!(p, d.pmf(i));
+        }
+        assert_eq!(d.pmf(1), 0.25);
+        assert_eq!(d.pmf(5), 0.75);
+        assert_eq!(d.pmf(0), 0.0);
+        assert_eq!(d.pmf(99), 0.0);
+        let sum: f32 = (0..d.len()).map(|i| d.pmf(i)).sum();
+        assert!((sum - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn distribution_with_nothing_to_sample() {
+        for w in [&[][..], &[0.0, 0.0][..], &[f32::NAN, -1.0][..]] {
+            let d = Distribution1D::new(w);
+            assert_eq!(d.total, 0.0);
+            assert_eq!(d.len(), w.len());
+            assert_eq!(d.sample(0.3), (0, 0.0));
+            assert!((0..d.len()).all(|i| d.pmf(i) == 0.0));
+        }
+    }
+
+    #[test]
+    fn distribution_total_is_accumulated_in_double_precision() {
+        // An f32 running sum would stall at 1e8 (its ulp there is 8) and drop the ones.
+        let mut w = vec![1e8f32];
+        w.extend(std::iter::repeat_n(1.0f32, 1000));
+        let d = Distribution1D::new(&w);
+        assert_eq!(d.total, 100_001_000.0);
+        assert_eq!(d.cdf[d.len()], 1.0);
+    }
 }

@@ -79,6 +79,8 @@ pub struct Scene {
     pub meshes: Vec<String>,
     pub materials: Vec<Material>,
     pub media: Vec<Medium>,
+    /// The medium with `region = "global"`: it fills all space not inside a medium region.
+    pub global_medium: MediumId,
     pub lights: Vec<PunctualLight>,
     pub camera: Camera,
     pub render: RenderSettings,

@@ -1,1 +1,10 @@
-//! CPU tracing
+//! beamlight-trace: the CPU side of rendering — BVH and ray queries, transmittance and
+//! distance sampling in media, light sampling, and the reference volumetric path tracer.
+pub mod bvh;
+pub mod context;
+pub mod geometry;
+pub mod lights;
+pub mod media;
+pub mod pt;
+
+pub use context::TraceScene;

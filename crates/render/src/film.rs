@@ -1,0 +1,99 @@
+//! Accumulators and images.
+use beamlight_scene::Rgb;
+
+/// A linear-RGB image, row-major, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Rgb>,
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        Self { width, height, pixels: vec![Rgb::ZERO; (width * height) as usize] }
+    }
+
+    pub fn get(&self, x: u32, y: u32) -> Rgb {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Mean over all pixels.
+    pub fn mean(&self) -> Rgb {
+        let mut s = [0f64; 3];
+        for p in &self.pixels {
+            for c in 0..3 {
+                s[c] += p[c] as f64;
+            }
+        }
+        let n = self.pixels.len().max(1) as f64;
+        Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32)
+    }
+}
+
+/// Per-pixel running sums of samples (and of their squares, for variance estimates), in f64 so
+/// that millions of samples can be added without losing the small ones.
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    sum: Vec<[f64; 3]>,
+    sum_sq: Vec<[f64; 3]>,
+    /// Samples per pixel accumulated so far (every pixel gets the same count).
+    pub samples: u64,
+    /// Samples that were NaN or infinite and were dropped (a bug if ever non-zero).
+    pub rejected: u64,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width * height) as usize;
+        Self { width, height, sum: vec![[0.0; 3]; n], sum_sq: vec![[0.0; 3]; n], samples: 0, rejected: 0 }
+    }
+
+    /// Adds one pass: one sample per pixel. Non-finite samples are counted and dropped so that
+    /// no NaN or Inf ever reaches the accumulator.
+    pub fn add_pass(&mut self, pass: &[Rgb]) {
+        assert_eq!(pass.len(), self.sum.len());
+        for ((s, s2), v) in self.sum.iter_mut().zip(self.sum_sq.iter_mut()).zip(pass) {
+            if !v.is_finite() {
+                self.rejected += 1;
+                continue;
+            }
+            for c in 0..3 {
+                let x = v[c] as f64;
+                s[c] += x;
+                s2[c] += x * x;
+            }
+        }
+        self.samples += 1;
+    }
+
+    /// The current estimate: the plain average of the samples per pixel.
+    pub fn image(&self) -> Image {
+        let n = self.samples.max(1) as f64;
+        let pixels = self.sum.iter().map(|s| Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32)).collect();
+        Image { width: self.width, height: self.height, pixels }
+    }
+
+    /// Estimated variance of each pixel's mean (sample variance / n).
+    pub fn variance_of_mean(&self) -> Image {
+        let n = self.samples as f64;
+        let pixels = self
+            .sum
+            .iter()
+            .zip(&self.sum_sq)
+            .map(|(s, s2)| {
+                let v = |c: usize| {
+                    if n < 2.0 {
+                        return 0.0;
+                    }
+                    let mean = s[c] / n;
+                    (((s2[c] / n - mean * mean) * n / (n - 1.0)).max(0.0) / n) as f32
+                };
+                Rgb::new(v(0), v(1), v(2))
+            })
+            .collect();
+        Image { width: self.width, height: self.height, pixels }
+    }
+}

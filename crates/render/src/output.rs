@@ -1,0 +1,127 @@
+//! Image files: OpenEXR (float32 linear RGB, with render metadata) and PNG previews, written
+//! atomically (temporary file in the same directory, fsync, rename) so a reader never sees a
+//! partial file.
+use crate::Image;
+use beamlight_scene::Rgb;
+use std::{
+    io::{Cursor, Write},
+    path::{Path, PathBuf},
+};
+
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("{path}: {message}")]
+    File { path: PathBuf, message: String },
+}
+
+fn err(path: &Path, message: impl ToString) -> OutputError {
+    OutputError::File { path: path.to_path_buf(), message: message.to_string() }
+}
+
+/// Writes `bytes` to `path` atomically.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path.file_name().ok_or_else(|| err(path, "not a file name"))?;
+    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
+    let result = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        err(path, format!("cannot write: {e}"))
+    })
+}
+
+/// Writes a float32 RGB OpenEXR with `metadata` as string header attributes.
+pub fn write_exr(path: &Path, image: &Image, metadata: &[(&str, String)]) -> Result<(), OutputError> {
+    use exr::{meta::attribute::*, prelude::*};
+    let w = image.width as usize;
+    let mut attrs = LayerAttributes::default();
+    attrs.software_name = Some(Text::from("beamlight"));
+    for (k, v) in metadata {
+        attrs.other.insert(Text::from(*k), AttributeValue::Text(Text::from(v.as_str())));
+    }
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let p = image.pixels[pos.y() * w + pos.x()];
+        (p.x, p.y, p.z)
+    });
+    let layer = Layer::new((w, image.height as usize), attrs, Encoding::SMALL_LOSSLESS, channels);
+    let mut bytes = Cursor::new(Vec::new());
+    Image::from_layer(layer).write().to_buffered(&mut bytes).map_err(|e| err(path, e))?;
+    write_atomic(path, bytes.get_ref())
+}
+
+/// Reads the first RGB(A) layer of an OpenEXR file, with its string header attributes.
+pub fn read_exr(path: &Path) -> Result<(Image, Vec<(String, String)>), OutputError> {
+    use exr::prelude::*;
+    let img = read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![Rgb::ZERO; res.width() * res.height()]),
+        |px: &mut (usize, Vec<Rgb>), pos, (r, g, b, _a): (f32, f32, f32, f32)| px.1[pos.y() * px.0 + pos.x()] = Rgb::new(r, g, b),
+    )
+    .map_err(|e| err(path, format!("cannot read OpenEXR: {e}")))?;
+    let size = img.layer_data.size;
+    let mut meta = Vec::new();
+    for (k, v) in &img.layer_data.attributes.other {
+        if let exr::meta::attribute::AttributeValue::Text(t) = v {
+            meta.push((k.to_string(), t.to_string()));
+        }
+    }
+    meta.sort();
+    let pixels = img.layer_data.channel_data.pixels.1;
+    Ok((crate::Image { width: size.width() as u32, height: size.height() as u32, pixels }, meta))
+}
+
+/// Writes an 8-bit sRGB PNG preview: radiance × 2^exposure, clamped, sRGB-encoded.
+pub fn write_png(path: &Path, image: &Image, exposure: f32) -> Result<(), OutputError> {
+    let scale = exposure.exp2();
+    let mut buf = Vec::with_capacity(image.pixels.len() * 3);
+    for p in &image.pixels {
+        for c in 0..3 {
+            buf.push((srgb_encode(p[c] * scale) * 255.0 + 0.5) as u8);
+        }
+    }
+    let rgb = image::RgbImage::from_raw(image.width, image.height, buf).ok_or_else(|| err(path, "bad image size"))?;
+    let mut bytes = Cursor::new(Vec::new());
+    rgb.write_to(&mut bytes, image::ImageFormat::Png).map_err(|e| err(path, e))?;
+    write_atomic(path, bytes.get_ref())
+}
+
+/// Linear → sRGB transfer function, input clamped to [0, 1] (NaN → 0).
+pub fn srgb_encode(x: f32) -> f32 {
+    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+    if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_round_trip_keeps_values_and_metadata() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        let mut img = Image::new(5, 3);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            *p = Rgb::new(i as f32, 0.5 / (i + 1) as f32, 1e-7 * i as f32);
+        }
+        write_exr(&path, &img, &[("beamlight.method", "pt".into()), ("beamlight.spp", "16".into())]).unwrap();
+        let (back, meta) = read_exr(&path).unwrap();
+        assert_eq!(back, img);
+        assert!(meta.contains(&("beamlight.method".into(), "pt".into())));
+        // No temporary file left behind.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn unwritable_path_names_the_file() {
+        let e = write_exr(Path::new("/nonexistent-dir/x.exr"), &Image::new(1, 1), &[]).unwrap_err();
+        assert!(e.to_string().contains("/nonexistent-dir/x.exr"));
+    }
+}

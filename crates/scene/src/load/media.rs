@@ -1,0 +1,500 @@
+//! Media from the sidecar: validation, medium regions (closed meshes), nesting, density grids.
+use super::TomlSrc;
+use super::build::{Geometry, Traversal, mesh_label, node_label};
+use super::sidecar::{Rgb3, Sidecar};
+use crate::SceneError;
+use crate::medium::{DensityGrid, Medium, parse_grid};
+use crate::scene::MediumInterface;
+use glam::{DVec3, UVec3, Vec3};
+use gltf::json;
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::PathBuf;
+use toml::Spanned;
+
+/// One instance (node) of a mesh that bounds a medium.
+pub(super) struct RegionInstance {
+    /// Index into the planned media.
+    pub medium: usize,
+    pub mesh: usize,
+    pub node: usize,
+    /// Its (non-degenerate) triangles in [`Geometry::triangles`].
+    pub tris: Range<usize>,
+    /// All its world-space triangles, degenerate ones included, for the topology checks.
+    pub raw: Vec<[Vec3; 3]>,
+}
+
+struct GridPlan {
+    file: PathBuf,
+    res: UVec3,
+    values: Vec<f32>,
+    bounds: Option<(Vec3, Vec3)>,
+}
+
+pub(super) struct PlannedMedium {
+    medium: Medium,
+    mesh: Option<usize>,
+    grid: Option<GridPlan>,
+    region_span: Range<usize>,
+}
+
+pub(super) struct MediaPlan {
+    media: Vec<PlannedMedium>,
+    /// For each glTF mesh, the medium it bounds.
+    pub region_of_mesh: Vec<Option<usize>>,
+}
+
+impl MediaPlan {
+    pub fn empty(meshes: usize) -> Self {
+        Self {
+            media: Vec::new(),
+            region_of_mesh: vec![None; meshes],
+        }
+    }
+}
+
+fn coefficient(t: &TomlSrc, what: &str, v: &Spanned<Rgb3>) -> Result<Vec3, SceneError> {
+    let c = v.get_ref().0;
+    if c.iter().any(|x| !x.is_finite() || *x < 0.0) {
+        return Err(t.err_at(
+            v.span(),
+            format!("{what} = {c:?}: coefficients must be finite and non-negative"),
+        ));
+    }
+    Ok(Vec3::from(c))
+}
+
+/// Checks the `[[media]]` tables and resolves their regions to glTF meshes.
+pub(super) fn plan_media(
+    t: &TomlSrc,
+    sc: &Sidecar,
+    root: &json::Root,
+    trav: &Traversal,
+) -> Result<MediaPlan, SceneError> {
+    let mut plan = MediaPlan::empty(root.meshes.len());
+    let mut global: Option<String> = None;
+    for m in &sc.media {
+        let name = m.name.get_ref().clone();
+        let head = format!("[[media]] '{name}'");
+        if name.is_empty() {
+            return Err(t.err_at(m.name.span(), "[[media]]: name must not be empty"));
+        }
+        if plan.media.iter().any(|p| p.medium.name == name) {
+            return Err(t.err_at(
+                m.name.span(),
+                format!("{head}: a medium of this name is already defined"),
+            ));
+        }
+        let sigma_s = coefficient(t, &format!("{head}: sigma_s"), &m.sigma_s)?;
+        let sigma_a = match &m.sigma_a {
+            Some(v) => coefficient(t, &format!("{head}: sigma_a"), v)?,
+            None => Vec3::ZERO,
+        };
+        let g = match &m.g {
+            Some(g) => {
+                let v = *g.get_ref();
+                if !(v > -1.0 && v < 1.0) {
+                    return Err(
+                        t.err_at(g.span(), format!("{head}: g = {v} must satisfy -1 < g < 1"))
+                    );
+                }
+                v
+            }
+            None => 0.0,
+        };
+        let region = m.region.get_ref();
+        let mesh = if region == "global" {
+            if let Some(other) = &global {
+                return Err(t.err_at(
+                    m.region.span(),
+                    format!("{head}: medium '{other}' is already global; at most one medium may be global"),
+                ));
+            }
+            global = Some(name.clone());
+            None
+        } else {
+            let by_mesh: Vec<usize> = (0..root.meshes.len())
+                .filter(|&i| root.meshes[i].name.as_deref() == Some(region.as_str()))
+                .collect();
+            let mesh = match by_mesh.as_slice() {
+                [one] => *one,
+                [] => {
+                    let by_node = root
+                        .nodes
+                        .iter()
+                        .find(|n| n.name.as_deref() == Some(region.as_str()))
+                        .and_then(|n| n.mesh);
+                    match by_node {
+                        Some(m) => m.value(),
+                        None => {
+                            let mut names: Vec<String> = root
+                                .meshes
+                                .iter()
+                                .filter_map(|m| m.name.as_ref())
+                                .map(|n| format!("'{n}'"))
+                                .collect();
+                            names.sort();
+                            names.dedup();
+                            let list = if names.is_empty() {
+                                "the glTF has no named meshes".to_string()
+                            } else {
+                                format!("meshes: {}", names.join(", "))
+                            };
+                            return Err(t.err_at(
+                                m.region.span(),
+                                format!("{head}: region '{region}' names no glTF mesh ({list}); use \"global\" or a mesh name"),
+                            ));
+                        }
+                    }
+                }
+                _ => {
+                    return Err(t.err_at(
+                        m.region.span(),
+                        format!(
+                            "{head}: region '{region}' is ambiguous: {} glTF meshes have that name",
+                            by_mesh.len()
+                        ),
+                    ));
+                }
+            };
+            if !trav.instances.iter().any(|&(_, mi, _)| mi == mesh) {
+                return Err(t.err_at(
+                    m.region.span(),
+                    format!(
+                        "{head}: region {} is not used by any node of the scene",
+                        mesh_label(root, mesh)
+                    ),
+                ));
+            }
+            if let Some(other) = plan.region_of_mesh[mesh] {
+                return Err(t.err_at(
+                    m.region.span(),
+                    format!(
+                        "{head}: {} already bounds medium '{}'; a mesh bounds at most one medium",
+                        mesh_label(root, mesh),
+                        plan.media[other].medium.name
+                    ),
+                ));
+            }
+            plan.region_of_mesh[mesh] = Some(plan.media.len());
+            Some(mesh)
+        };
+        let grid = match &m.density {
+            None => None,
+            Some(d) => {
+                let d = d.get_ref();
+                let file = t.src.dir().join(d.grid.get_ref());
+                let bytes = std::fs::read(&file).map_err(|e| {
+                    t.err_at(
+                        d.grid.span(),
+                        format!(
+                            "{head}: density grid '{}' cannot be read: {e}",
+                            file.display()
+                        ),
+                    )
+                })?;
+                let (res, values) = parse_grid(&bytes).map_err(|e| {
+                    let (line, col) = super::sidecar::line_col(&t.text, d.grid.span().start);
+                    SceneError::invalid(
+                        &file,
+                        format!(
+                            "{e} (density grid of {head} in {}, line {line}, column {col})",
+                            t.src.name()
+                        ),
+                    )
+                })?;
+                let bounds = match &d.bounds {
+                    None => None,
+                    Some(b) => {
+                        let [lo, hi] = b.get_ref().map(Vec3::from);
+                        if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
+                            return Err(t.err_at(
+                                b.span(),
+                                format!("{head}: density bounds {:?} must be finite with min < max on every axis", b.get_ref()),
+                            ));
+                        }
+                        Some((lo, hi))
+                    }
+                };
+                Some(GridPlan {
+                    file,
+                    res,
+                    values,
+                    bounds,
+                })
+            }
+        };
+        plan.media.push(PlannedMedium {
+            medium: Medium {
+                name,
+                sigma_s,
+                sigma_a,
+                g,
+                density: None,
+            },
+            mesh,
+            grid,
+            region_span: m.region.span(),
+        });
+    }
+    Ok(plan)
+}
+
+/// Checks that an instance is a closed, consistently oriented manifold; `Err` says why not.
+fn check_closed(raw: &[[Vec3; 3]]) -> Result<(), String> {
+    let key = |p: Vec3| {
+        p.to_array()
+            .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
+    };
+    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut pos: Vec<Vec3> = Vec::new();
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut faces = 0usize;
+    for tri in raw {
+        let v = tri.map(|p| {
+            *ids.entry(key(p)).or_insert_with(|| {
+                pos.push(p);
+                (pos.len() - 1) as u32
+            })
+        });
+        if v[0] == v[1] || v[1] == v[2] || v[0] == v[2] {
+            continue; // collapsed triangle: no edges
+        }
+        faces += 1;
+        for k in 0..3 {
+            *edges.entry((v[k], v[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    if faces == 0 {
+        return Err("it has no triangles".into());
+    }
+    let fmt = |a: u32, b: u32| {
+        let (p, q) = (pos[a as usize], pos[b as usize]);
+        format!("({}, {}, {})-({}, {}, {})", p.x, p.y, p.z, q.x, q.y, q.z)
+    };
+    let mut open = 0usize;
+    let mut example_open = None;
+    // Deterministic order for the example edge.
+    let mut sorted: Vec<(&(u32, u32), &u32)> = edges.iter().collect();
+    sorted.sort_unstable();
+    for &(&(a, b), &n) in &sorted {
+        let back = edges.get(&(b, a)).copied().unwrap_or(0);
+        if n > 1 {
+            return Err(if back + n > 2 {
+                format!(
+                    "the edge {} is shared by {} triangles (not a manifold)",
+                    fmt(a, b),
+                    n + back
+                )
+            } else {
+                format!(
+                    "the triangles are not consistently oriented (two triangles traverse the edge {} in the same direction)",
+                    fmt(a, b)
+                )
+            });
+        }
+        if back == 0 {
+            open += 1;
+            example_open.get_or_insert((a, b));
+        } else if back > 1 {
+            return Err(format!(
+                "the edge {} is shared by {} triangles (not a manifold)",
+                fmt(a, b),
+                n + back
+            ));
+        }
+    }
+    if let Some((a, b)) = example_open {
+        return Err(format!(
+            "it has {open} open edge(s) that belong to only one triangle, e.g. {} (vertices are welded by exact position)",
+            fmt(a, b)
+        ));
+    }
+    Ok(())
+}
+
+/// Signed volume (positive when the triangles face outward).
+fn signed_volume(raw: &[[Vec3; 3]]) -> f64 {
+    let Some(first) = raw.first() else { return 0.0 };
+    let o = first[0].as_dvec3();
+    raw.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|p| p.as_dvec3() - o);
+            a.dot(b.cross(c))
+        })
+        .sum::<f64>()
+        / 6.0
+}
+
+/// Distance along `d` to the triangle, if the ray from `o` hits it (Möller–Trumbore, t > 0).
+fn ray_triangle(o: DVec3, d: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<f64> {
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-300 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - a;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t > 0.0).then_some(t)
+}
+
+/// True when `p` is inside the closed triangle set (odd number of crossings along a fixed ray).
+fn inside(p: Vec3, raw: &[[Vec3; 3]]) -> bool {
+    let d = DVec3::new(0.5773, 0.6168, -0.5351).normalize();
+    let o = p.as_dvec3();
+    raw.iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|v| v.as_dvec3());
+            ray_triangle(o, d, a, b, c).is_some()
+        })
+        .count()
+        % 2
+        == 1
+}
+
+fn bounds_of<'a>(points: impl Iterator<Item = &'a Vec3>) -> Option<(Vec3, Vec3)> {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for p in points {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo.x <= hi.x).then_some((lo, hi))
+}
+
+/// Checks region meshes, orients them outward, assigns medium interfaces and builds density grids.
+pub(super) fn finish_media(
+    t: Option<&TomlSrc>,
+    root: &json::Root,
+    plan: MediaPlan,
+    geo: &mut Geometry,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<Medium>, Option<u32>), SceneError> {
+    let Some(t) = t else {
+        return Ok((Vec::new(), None));
+    };
+    let global = plan
+        .media
+        .iter()
+        .position(|m| m.mesh.is_none())
+        .map(|i| i as u32);
+    let mut volumes = Vec::with_capacity(geo.regions.len());
+    for r in geo.regions.iter_mut() {
+        let pm = &plan.media[r.medium];
+        let head = format!("[[media]] '{}'", pm.medium.name);
+        let what = if root.meshes[r.mesh].name.is_some()
+            && root.nodes[r.node].name == root.meshes[r.mesh].name
+        {
+            mesh_label(root, r.mesh)
+        } else {
+            format!(
+                "{} (instanced by {})",
+                mesh_label(root, r.mesh),
+                node_label(root, r.node)
+            )
+        };
+        if let Err(why) = check_closed(&r.raw) {
+            return Err(t.err_at(
+                pm.region_span.clone(),
+                format!("{head}: region {what} must be a closed mesh, but {why}"),
+            ));
+        }
+        let v = signed_volume(&r.raw);
+        let (lo, hi) = bounds_of(r.raw.iter().flatten()).expect("closed mesh has triangles");
+        let extent = (hi - lo).as_dvec3();
+        if !(v.abs() > 1e-9 * extent.x.max(extent.y).max(extent.z).powi(3)) {
+            return Err(t.err_at(
+                pm.region_span.clone(),
+                format!("{head}: region {what} encloses no volume"),
+            ));
+        }
+        if v < 0.0 {
+            warnings.push(format!(
+                "{}: {head}: the triangles of region {what} face inward; they were flipped so their normals point out of the medium",
+                t.src.name()
+            ));
+            for tri in &mut geo.triangles[r.tris.clone()] {
+                tri.p.swap(1, 2);
+                if let Some(n) = &mut tri.n {
+                    n.swap(1, 2);
+                    *n = n.map(|v| -v);
+                }
+            }
+            for tri in &mut r.raw {
+                tri.swap(1, 2);
+            }
+        }
+        volumes.push(v.abs());
+    }
+    // Nesting: the innermost other region instance containing a point of this one.
+    let n = geo.regions.len();
+    let mut outside = vec![global; n];
+    for (r, out) in geo.regions.iter().zip(outside.iter_mut()) {
+        let probe = match geo.triangles.get(r.tris.clone()).and_then(|ts| ts.first()) {
+            Some(tri) => (tri.p[0] + tri.p[1] + tri.p[2]) / 3.0,
+            None => continue,
+        };
+        let mut best: Option<(f64, usize)> = None;
+        for (s, &volume) in geo.regions.iter().zip(&volumes) {
+            if s.mesh == r.mesh || !inside(probe, &s.raw) {
+                continue;
+            }
+            if best.is_none_or(|(v, _)| volume < v) {
+                best = Some((volume, s.medium));
+            }
+        }
+        if let Some((_, medium)) = best {
+            *out = Some(medium as u32);
+        }
+    }
+    for (i, r) in geo.regions.iter().enumerate() {
+        let iface = MediumInterface {
+            inside: Some(r.medium as u32),
+            outside: outside[i],
+        };
+        for tri in &mut geo.triangles[r.tris.clone()] {
+            tri.interface = Some(iface);
+        }
+    }
+    // Density grids.
+    let mut media = Vec::with_capacity(plan.media.len());
+    for (mi, pm) in plan.media.into_iter().enumerate() {
+        let mut medium = pm.medium;
+        if let Some(g) = pm.grid {
+            let bounds = match g.bounds {
+                Some(b) => Some(b),
+                None if pm.mesh.is_some() => bounds_of(
+                    geo.regions
+                        .iter()
+                        .filter(|r| r.medium == mi)
+                        .flat_map(|r| r.raw.iter().flatten()),
+                ),
+                None => bounds_of(geo.triangles.iter().flat_map(|t| t.p.iter())),
+            };
+            let Some((lo, hi)) = bounds.filter(|(lo, hi)| lo.cmplt(*hi).all()) else {
+                return Err(t.err_at(
+                    pm.region_span.clone(),
+                    format!(
+                        "[[media]] '{}': the density grid '{}' needs 'bounds' (the default box is empty or flat)",
+                        medium.name,
+                        g.file.display()
+                    ),
+                ));
+            };
+            medium.density = Some(DensityGrid::new(g.res, lo, hi, g.values));
+        }
+        media.push(medium);
+    }
+    Ok((media, global))
+}

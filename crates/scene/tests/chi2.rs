@@ -1,0 +1,633 @@
+//! Goodness-of-fit tests for every sampling routine (warps, phase function, BSDFs) and
+//! quadrature checks of their normalization / albedo.
+//!
+//! Each chi-square test bins ~10^6 samples and compares the counts with the pdf integrated over
+//! the cells (cells expecting < 5 samples pooled, any sample in a zero-pdf cell a failure).
+//! The significance is 0.01 for the whole file, split over the tests with a Šidák correction,
+//! so the suite does not flake; all seeds are fixed, so a failure reproduces.
+mod common;
+
+use beamlight_scene::Rgb;
+use beamlight_scene::bsdf::{Bsdf, TransportMode, fresnel_dielectric};
+use beamlight_scene::phase::{HenyeyGreenstein, hg_sample_cos_theta};
+use beamlight_scene::rng::Sampler;
+use beamlight_scene::sampling::*;
+use common::*;
+use glam::{DVec3, Vec2, Vec3};
+
+const N: usize = 1_000_000;
+
+/// Number of statistical tests (chi-square and binomial) in this file; keep in sync.
+const NUM_TESTS: usize = 34;
+
+fn alpha() -> f64 {
+    sidak(0.01, NUM_TESTS)
+}
+
+fn dir(x: f32, y: f32, z: f32) -> Vec3 {
+    Vec3::new(x, y, z).normalize()
+}
+
+/// Direction at polar angle `theta_deg` from +z, azimuth chosen off the axes.
+fn at_angle(theta_deg: f32) -> Vec3 {
+    let t = theta_deg.to_radians();
+    let phi = 0.7f32;
+    Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos()).normalize()
+}
+
+fn z_grid() -> SphereGrid {
+    SphereGrid::new(DFrame::world_z(), 20, 40, 1.0)
+}
+
+fn grid_around(axis: Vec3, p: f64) -> SphereGrid {
+    SphereGrid::new(DFrame::from_normal(axis.as_dvec3()), 20, 40, p)
+}
+
+fn close(a: f32, b: f32, rel: f32) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-7
+}
+
+// ---------------------------------------------------------------------------------------------
+// The helpers themselves
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn chi2_p_values_match_tables() {
+    // 95th and 99th percentiles of χ² (standard tables), and the dof = 2 closed form e^{-x/2}.
+    for (x, dof, p) in [
+        (3.841_459, 1, 0.05),
+        (6.634_897, 1, 0.01),
+        (18.307_04, 10, 0.05),
+        (124.342_1, 100, 0.05),
+    ] {
+        let got = chi2_p_value(x, dof);
+        assert!((got - p).abs() < 1e-6, "χ²({x}, {dof}) = {got}, want {p}");
+    }
+    for x in [0.1, 1.0, 5.0, 40.0] {
+        assert!((chi2_p_value(x, 2) - (-x / 2.0f64).exp()).abs() < 1e-12);
+    }
+    assert!((ln_gamma(10.0) - 362_880f64.ln()).abs() < 1e-12);
+    assert!((ln_gamma(0.5) - std::f64::consts::PI.sqrt().ln()).abs() < 1e-12);
+}
+
+#[test]
+fn chi2_rejects_a_wrong_pdf_and_a_sample_in_a_zero_cell() {
+    let uniform_sphere_pdf = |_: Vec3| 1.0 / (4.0 * std::f64::consts::PI);
+    let grid = z_grid();
+    let cells = grid.integrate_cells(&uniform_sphere_pdf, 1e-9);
+    // Cosine-distributed samples against the uniform pdf must fail.
+    let mut observed = vec![0.0; grid.cells()];
+    for i in 0..100_000 {
+        observed[grid.cell(cosine_hemisphere(Sampler::new(1, 0, i).next_2d()))] += 1.0;
+    }
+    let expected: Vec<f64> = cells.iter().map(|p| p * 100_000.0).collect();
+    assert!(chi2_test(&observed, &expected, alpha()).is_err());
+    // One sample where the pdf is zero fails even if everything else fits.
+    let mut expected = vec![100.0; 10];
+    expected[3] = 0.0;
+    let mut observed = expected.clone();
+    observed[3] = 1.0;
+    assert!(
+        chi2_test(&observed, &expected, alpha())
+            .unwrap_err()
+            .contains("expected count is 0")
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Warps
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn chi2_uniform_sphere() {
+    chi2_sphere(
+        "uniform sphere",
+        &z_grid(),
+        N,
+        11,
+        alpha(),
+        &mut |rng| Some(uniform_sphere(rng.next_2d())),
+        &|_| uniform_sphere_pdf() as f64,
+    );
+}
+
+#[test]
+fn chi2_cosine_hemisphere() {
+    chi2_sphere(
+        "cosine hemisphere",
+        &z_grid(),
+        N,
+        12,
+        alpha(),
+        &mut |rng| Some(cosine_hemisphere(rng.next_2d())),
+        &|w| cosine_hemisphere_pdf(w.z) as f64,
+    );
+}
+
+#[test]
+fn chi2_uniform_cone() {
+    for (k, cos_max, p) in [(0, 0.5f32, 1.0), (1, 0.995, 3.0)] {
+        let pdf = move |w: Vec3| {
+            if w.z >= cos_max {
+                uniform_cone_pdf(cos_max) as f64
+            } else {
+                0.0
+            }
+        };
+        chi2_sphere(
+            &format!("uniform cone cos_max = {cos_max}"),
+            &grid_around(Vec3::Z, p),
+            N,
+            13 + k,
+            alpha(),
+            &mut |rng| Some(uniform_cone(rng.next_2d(), cos_max)),
+            &pdf,
+        );
+    }
+}
+
+#[test]
+fn chi2_uniform_triangle() {
+    // K×K square cells over the (b1, b2) unit square: the diagonal b1 + b2 = 1 cuts the cells
+    // with i + j = K − 1 exactly in half, cells beyond it are empty. Density is 2.
+    const K: usize = 32;
+    let mut observed = vec![0.0; K * K];
+    for i in 0..N {
+        let b = uniform_triangle(Sampler::new(15, 0, i as u32).next_2d());
+        assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6, "{b}");
+        let ix = ((b.x * K as f32) as usize).min(K - 1);
+        let iy = ((b.y * K as f32) as usize).min(K - 1);
+        observed[ix * K + iy] += 1.0;
+    }
+    let cell = 2.0 / (K * K) as f64 * N as f64;
+    let expected: Vec<f64> = (0..K * K)
+        .map(|c| match (c / K + c % K).cmp(&(K - 1)) {
+            std::cmp::Ordering::Less => cell,
+            std::cmp::Ordering::Equal => 0.5 * cell,
+            std::cmp::Ordering::Greater => 0.0,
+        })
+        .collect();
+    let r = chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("triangle: {e}"));
+    eprintln!("triangle: {r:?}");
+}
+
+#[test]
+fn chi2_distribution_1d() {
+    let weights: Vec<f32> = (0..64)
+        .map(|i| {
+            if i % 7 == 3 || i == 0 || i == 63 {
+                0.0
+            } else {
+                1.0 + (i as f32 * 0.37).sin()
+            }
+        })
+        .collect();
+    let d = Distribution1D::new(&weights);
+    let total: f64 = weights.iter().map(|&w| w as f64).sum();
+    let mut observed = vec![0.0; weights.len()];
+    for i in 0..N {
+        let (k, pmf) = d.sample(Sampler::new(16, 0, i as u32).next_1d());
+        assert!(weights[k] > 0.0, "picked zero-weight item {k}");
+        let want = weights[k] as f64 / total;
+        assert!(
+            ((pmf as f64) - want).abs() < 1e-5 * want,
+            "pmf({k}) = {pmf}, want {want}"
+        );
+        observed[k] += 1.0;
+    }
+    let expected: Vec<f64> = weights
+        .iter()
+        .map(|&w| w as f64 / total * N as f64)
+        .collect();
+    let r =
+        chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("Distribution1D: {e}"));
+    eprintln!("Distribution1D: {r:?}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Henyey–Greenstein
+// ---------------------------------------------------------------------------------------------
+
+fn hg_wo() -> Vec3 {
+    dir(0.3, -0.5, 0.8)
+}
+
+/// Sampler closure that also checks the sample's own claims (weight 1, pdf == pdf()).
+fn hg_sampler(hg: HenyeyGreenstein, wo: Vec3) -> impl FnMut(&mut Sampler) -> Option<Vec3> {
+    move |rng| {
+        let s = hg.sample(wo, rng.next_2d());
+        assert!(s.weight == 1.0, "weight {}", s.weight);
+        let pdf = hg.pdf(wo, s.wi);
+        assert!(
+            close(s.pdf, pdf, 1e-3),
+            "g={}: sampled pdf {} vs pdf() {pdf}",
+            hg.g,
+            s.pdf
+        );
+        assert!(close(hg.eval(wo, s.wi) / s.pdf, s.weight, 1e-3));
+        Some(s.wi)
+    }
+}
+
+#[test]
+fn chi2_henyey_greenstein_world_grid() {
+    // A world-aligned grid with an off-axis wo, so the lobe's placement in φ is tested too.
+    for (k, g) in [-0.9f32, -0.3, 0.0, 0.5, 0.95].into_iter().enumerate() {
+        let hg = HenyeyGreenstein { g };
+        let wo = hg_wo();
+        chi2_sphere(
+            &format!("HG g = {g} (world grid)"),
+            &z_grid(),
+            N,
+            20 + k as u32,
+            alpha(),
+            &mut hg_sampler(hg, wo),
+            &|wi| hg.pdf(wo, wi) as f64,
+        );
+    }
+}
+
+#[test]
+fn chi2_henyey_greenstein_lobe_grid() {
+    // Grid centred on the peak (−wo forward, +wo backward) with rows concentrated near it,
+    // so that the shape inside the sharp lobes is resolved.
+    for (k, g, axis, p) in [
+        (0, 0.95f32, -hg_wo(), 3.0),
+        (1, -0.9, hg_wo(), 2.0),
+        (2, 0.5, -hg_wo(), 1.5),
+    ] {
+        let hg = HenyeyGreenstein { g };
+        let wo = hg_wo();
+        chi2_sphere(
+            &format!("HG g = {g} (lobe grid)"),
+            &grid_around(axis, p),
+            N,
+            30 + k,
+            alpha(),
+            &mut hg_sampler(hg, wo),
+            &|wi| hg.pdf(wo, wi) as f64,
+        );
+    }
+}
+
+#[test]
+fn chi2_henyey_greenstein_extreme_g_in_double_precision() {
+    // For |g| → 1 the lobe is far narrower than an f32 direction can resolve near the peak,
+    // so test the f32 inversion of the CDF itself: x = 1 − cos θ (forward, g > 0) or
+    // x = 1 + cos θ (backward, g < 0), binned logarithmically from 1e-4 (1 − |g|)² to 2
+    // against the exact CDF in f64: P(x ≤ X) = (1 − g²)/(2g) [1/(1 − g) − 1/√((1 − g)² + 2gX)].
+    for (k, g) in [0.999f32, 0.99999, -0.99999].into_iter().enumerate() {
+        let ga = g.abs() as f64;
+        let cdf = |x: f64| {
+            let tail = 1.0 / (1.0 - ga) - 1.0 / ((1.0 - ga) * (1.0 - ga) + 2.0 * ga * x).sqrt();
+            (1.0 - ga * ga) / (2.0 * ga) * tail
+        };
+        const BINS: usize = 60;
+        let x_min = 1e-4 * (1.0 - ga) * (1.0 - ga);
+        let edge = |b: usize| x_min * (2.0 / x_min).powf(b as f64 / BINS as f64);
+        // Bin 0 is [0, x_min); bin b ≥ 1 is [edge(b − 1), edge(b)).
+        let mut observed = vec![0.0; BINS + 1];
+        for i in 0..N {
+            let u = Sampler::new(40 + k as u32, 0, i as u32).next_1d();
+            let (one_minus, one_plus) = hg_sample_cos_theta(g, u);
+            assert!(
+                one_minus.is_finite()
+                    && one_plus.is_finite()
+                    && one_minus >= 0.0
+                    && one_plus >= 0.0
+            );
+            let x = if g > 0.0 { one_minus } else { one_plus } as f64;
+            let b = if x < x_min {
+                0
+            } else {
+                ((x / x_min).ln() / (2.0 / x_min).ln() * BINS as f64) as usize + 1
+            };
+            observed[b.min(BINS)] += 1.0;
+        }
+        let mut expected = vec![cdf(x_min) * N as f64];
+        expected.extend((1..=BINS).map(|b| (cdf(edge(b)) - cdf(edge(b - 1))) * N as f64));
+        let r =
+            chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("HG g = {g}: {e}"));
+        eprintln!("HG cos θ, g = {g}: {r:?}");
+    }
+}
+
+#[test]
+fn henyey_greenstein_integrates_to_one() {
+    // θ-concentrated quadrature (rows ∝ t³ around the peak) resolves lobes of width 1e-3.
+    for g in [-0.999f32, -0.9, -0.3, 0.0, 1e-7, 0.5, 0.95, 0.999] {
+        let hg = HenyeyGreenstein { g };
+        let wo = hg_wo();
+        let axis = if g >= 0.0 { -wo } else { wo };
+        let grid = grid_around(axis, 3.0);
+        let integral = grid.integrate_sphere(&|wi| hg.eval(wo, wi) as f64, 1e-7);
+        assert!(
+            (integral - 1.0).abs() < 1e-4,
+            "g = {g}: ∫ p dω = {integral}"
+        );
+    }
+    // At g = ±0.99999 the peak (width 1e-5) is near the angular resolution of f32 vectors,
+    // so only a looser check is meaningful.
+    for g in [-0.99999f32, 0.99999] {
+        let hg = HenyeyGreenstein { g };
+        let wo = hg_wo();
+        let grid = grid_around(if g >= 0.0 { -wo } else { wo }, 4.0);
+        let integral = grid.integrate_sphere(&|wi| hg.eval(wo, wi) as f64, 1e-7);
+        assert!(
+            (integral - 1.0).abs() < 2e-2,
+            "g = {g}: ∫ p dω = {integral}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// BSDFs
+// ---------------------------------------------------------------------------------------------
+
+/// Sampler closure that checks each sample against `eval`/`pdf`: the returned pdf equals
+/// `pdf(wo, wi)` and the weight equals f·|cos θi|/pdf (relative 1e-3).
+fn bsdf_sampler(m: &Bsdf, wo: Vec3) -> impl FnMut(&mut Sampler) -> Option<Vec3> + '_ {
+    move |rng| {
+        let u = rng.next_2d();
+        let s = m.sample(wo, u, rng.next_1d())?;
+        assert!(!s.is_delta);
+        assert!(s.wi.z * wo.z > 0.0, "{m:?}: sample on the wrong side");
+        let pdf = m.pdf(wo, s.wi);
+        assert!(
+            close(s.pdf, pdf, 1e-3),
+            "{m:?}: sampled pdf {} vs pdf() {pdf}",
+            s.pdf
+        );
+        let want = m.eval(wo, s.wi) * s.wi.z.abs() / s.pdf;
+        for c in 0..3 {
+            assert!(
+                close(s.weight[c], want[c], 1e-3),
+                "{m:?}: weight {} vs f·cos/pdf {want}",
+                s.weight
+            );
+        }
+        Some(s.wi)
+    }
+}
+
+fn chi2_bsdf(name: &str, m: &Bsdf, wo: Vec3, grid: &SphereGrid, seed: u32) {
+    chi2_sphere(
+        name,
+        grid,
+        N,
+        seed,
+        alpha(),
+        &mut bsdf_sampler(m, wo),
+        &|wi| m.pdf(wo, wi) as f64,
+    );
+}
+
+#[test]
+fn chi2_lambert() {
+    let m = Bsdf::Lambert {
+        albedo: Rgb::new(0.8, 0.5, 0.2),
+    };
+    chi2_bsdf("Lambert, wo above", &m, dir(0.3, -0.5, 0.8), &z_grid(), 50);
+    chi2_bsdf("Lambert, wo below", &m, dir(-0.6, 0.2, -0.3), &z_grid(), 51);
+}
+
+fn phong(kd: f32, ks: f32, n: f32) -> Bsdf {
+    Bsdf::Phong {
+        diffuse: Rgb::new(kd, kd * 0.5, kd),
+        specular: Rgb::new(ks, ks, ks * 0.7),
+        exponent: n,
+    }
+}
+
+fn mirror_dir(w: Vec3) -> Vec3 {
+    Vec3::new(-w.x, -w.y, w.z)
+}
+
+#[test]
+fn chi2_phong_low_exponents() {
+    // World grid: the horizon is a row boundary, the lobe is off-axis.
+    let cases = [
+        (1.0, 30.0, 0.3, 0.5),
+        (20.0, 45.0, 0.2, 0.6),
+        (20.0, 100.0, 0.5, 0.5),
+    ];
+    for (k, (n, theta, kd, ks)) in cases.into_iter().enumerate() {
+        let m = phong(kd, ks, n);
+        chi2_bsdf(
+            &format!("Phong n = {n}, θo = {theta}° (world grid)"),
+            &m,
+            at_angle(theta),
+            &z_grid(),
+            60 + k as u32,
+        );
+    }
+}
+
+#[test]
+fn chi2_phong_high_exponents() {
+    // Grid around the mirror direction with rows concentrated near it, plus a world grid for
+    // the grazing case where the horizon clips the lobe.
+    let cases = [
+        (80.0, 70.0, 0.1, 0.8, 2.0),
+        (100.0, 10.0, 0.0, 1.0, 2.0),
+        (100.0, 150.0, 0.2, 0.7, 2.0), // wo below the surface: the two-sided flip
+        (100.0, 85.0, 0.0, 1.0, 2.0),  // grazing: a large part of the lobe is rejected
+        (1000.0, 40.0, 0.05, 0.9, 3.0),
+    ];
+    for (k, (n, theta, kd, ks, p)) in cases.into_iter().enumerate() {
+        let m = phong(kd, ks, n);
+        let wo = at_angle(theta);
+        let grid = grid_around(mirror_dir(wo), p);
+        chi2_bsdf(
+            &format!("Phong n = {n}, θo = {theta}° (lobe grid)"),
+            &m,
+            wo,
+            &grid,
+            70 + k as u32,
+        );
+    }
+    let m = phong(0.1, 0.8, 80.0);
+    chi2_bsdf(
+        "Phong n = 80, θo = 70° (world grid)",
+        &m,
+        at_angle(70.0),
+        &z_grid(),
+        80,
+    );
+}
+
+#[test]
+fn lambert_and_phong_directional_albedo() {
+    let eps = 1e-6;
+    let albedo_of = |m: &Bsdf, wo: Vec3| {
+        let r = mirror_dir(wo);
+        // Centre the grid on the lobe; rows ∝ t³ resolve exponents up to ~1e4.
+        let grid = grid_around(r, 3.0);
+        grid.integrate_sphere(&|wi| (m.eval(wo, wi).x * wi.z.abs()) as f64, eps)
+    };
+    let lambert = Bsdf::Lambert {
+        albedo: Rgb::new(0.7, 0.1, 0.3),
+    };
+    for theta in [0.0, 30.0, 60.0, 89.0, 120.0] {
+        let a = albedo_of(&lambert, at_angle(theta));
+        assert!((a - 0.7).abs() < 1e-4, "Lambert θo = {theta}°: {a}");
+    }
+    for n in [1.0, 20.0, 100.0, 1000.0, 1e4] {
+        let (kd, ks) = (0.25f32, 0.7f32);
+        let m = Bsdf::Phong {
+            diffuse: Rgb::splat(kd),
+            specular: Rgb::splat(ks),
+            exponent: n,
+        };
+        // At normal incidence the whole lobe is above the horizon: exactly kd + ks.
+        let a = albedo_of(&m, Vec3::Z);
+        assert!(
+            (a - (kd + ks) as f64).abs() < 1e-4,
+            "Phong n = {n} at normal incidence: {a}"
+        );
+        // Elsewhere it loses energy (mostly at grazing angles) but never gains any.
+        let mut previous = a;
+        for theta in [20.0, 45.0, 70.0, 85.0, 89.5] {
+            let a = albedo_of(&m, at_angle(theta));
+            assert!(
+                a <= (kd + ks) as f64 + 1e-4,
+                "Phong n = {n}, θo = {theta}°: {a} > kd + ks"
+            );
+            assert!(
+                a <= previous + 1e-4,
+                "Phong n = {n}: albedo grows towards grazing ({a} > {previous})"
+            );
+            previous = a;
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Delta BSDFs
+// ---------------------------------------------------------------------------------------------
+
+/// Fresnel reflectance from the angle form (an independent formula from the implementation's
+/// cosine form), f64. `eta` = n_t / n_i.
+fn fresnel_reference(theta_i: f64, eta: f64) -> f64 {
+    let sin_t = theta_i.sin() / eta;
+    if sin_t >= 1.0 {
+        return 1.0;
+    }
+    if theta_i == 0.0 {
+        return ((eta - 1.0) / (eta + 1.0)).powi(2);
+    }
+    let theta_t = sin_t.asin();
+    let rs = ((theta_i - theta_t).sin() / (theta_i + theta_t).sin()).powi(2);
+    let rp = ((theta_i - theta_t).tan() / (theta_i + theta_t).tan()).powi(2);
+    0.5 * (rs + rp)
+}
+
+#[test]
+fn glass_directions_obey_reflection_and_snell() {
+    for ior in [1.5f32, 1.33, 2.4, 0.7] {
+        let glass = Bsdf::Glass {
+            ior,
+            tint: Rgb::ONE,
+        };
+        for theta in [
+            0.0f32, 10.0, 30.0, 41.0, 45.0, 60.0, 80.0, 89.9, 100.0, 135.0, 170.0, 180.0,
+        ] {
+            let wo = at_angle(theta);
+            let outside = wo.z >= 0.0;
+            let eta = if outside { ior } else { 1.0 / ior } as f64;
+            let theta_i = (wo.z.abs() as f64).acos();
+            let f_ref = fresnel_reference(theta_i, eta);
+            assert!(
+                (fresnel_dielectric(wo.z.abs(), eta as f32) as f64 - f_ref).abs() < 1e-5,
+                "ior {ior} θ {theta}"
+            );
+            for u_lobe in [0.0f32, 0.5, 0.999_999] {
+                let s = glass.sample(wo, Vec2::new(0.3, 0.6), u_lobe).unwrap();
+                assert!(s.is_delta && (s.wi.length() - 1.0).abs() < 1e-5);
+                if s.wi.z * wo.z > 0.0 || (wo.z == 0.0 && s.wi == mirror_dir(wo)) {
+                    // Reflection: chosen with probability F.
+                    assert_eq!(s.wi, mirror_dir(wo));
+                    assert!((s.pdf as f64 - f_ref).abs() < 1e-5);
+                    assert_eq!(s.weight, Rgb::ONE);
+                } else {
+                    // Refraction: opposite side, tangential part antiparallel to wo's, Snell.
+                    assert!(f_ref < 1.0, "refraction under TIR (ior {ior}, θ {theta})");
+                    assert!((s.pdf as f64 - (1.0 - f_ref)).abs() < 1e-5);
+                    let (wo_t, wi_t) = (wo.truncate().as_dvec2(), s.wi.truncate().as_dvec2());
+                    assert!(wo_t.perp_dot(wi_t).abs() < 1e-6 && wo_t.dot(wi_t) <= 0.0);
+                    let (sin_o, sin_i) = (wo_t.length(), wi_t.length());
+                    assert!(
+                        (sin_o - eta * sin_i).abs() < 1e-5,
+                        "Snell: {sin_o} vs {eta}·{sin_i}"
+                    );
+                    assert!((s.weight.x as f64 - 1.0 / (eta * eta)).abs() < 1e-5);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn glass_reflects_with_the_fresnel_probability() {
+    // Binomial test per configuration (z² is χ² with one dof), same Šidák budget.
+    let configs = [
+        (1.5f32, 20.0f32),
+        (1.5, 75.0),
+        (1.5, 160.0),
+        (1.33, 88.0),
+        (2.4, 50.0),
+        (0.7, 30.0),
+    ];
+    for (k, (ior, theta)) in configs.into_iter().enumerate() {
+        let glass = Bsdf::Glass {
+            ior,
+            tint: Rgb::ONE,
+        };
+        let wo = at_angle(theta);
+        let eta = if wo.z >= 0.0 { ior } else { 1.0 / ior } as f64;
+        let f = fresnel_reference((wo.z.abs() as f64).acos(), eta);
+        let mut reflected = 0.0;
+        let mut mean_weight_importance = 0.0;
+        for i in 0..N {
+            let mut rng = Sampler::new(90 + k as u32, 0, i as u32);
+            let (u, u_lobe) = (rng.next_2d(), rng.next_1d());
+            let s = glass.sample(wo, u, u_lobe).unwrap();
+            if s.wi.z * wo.z > 0.0 {
+                reflected += 1.0;
+            }
+            let s = glass
+                .sample_mode(wo, u, u_lobe, TransportMode::Importance)
+                .unwrap();
+            mean_weight_importance += s.weight.x as f64 / N as f64;
+        }
+        let n = N as f64;
+        let z2 = (reflected - n * f).powi(2) / (n * f * (1.0 - f));
+        let p = chi2_p_value(z2, 1);
+        assert!(
+            p >= alpha(),
+            "ior {ior}, θ {theta}: reflected {reflected} of {n}, F = {f}, p = {p:.2e}"
+        );
+        // Photon weights: the tint (1) whichever lobe is chosen, so flux is conserved.
+        assert!((mean_weight_importance - 1.0).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn mirror_reflects_exactly() {
+    let m = Bsdf::Mirror {
+        reflectance: Rgb::new(0.9, 0.8, 0.7),
+    };
+    for theta in [0.0, 30.0, 89.999, 90.0, 120.0, 180.0] {
+        let wo = at_angle(theta);
+        let s = m.sample(wo, Vec2::new(0.2, 0.9), 0.4).unwrap();
+        assert_eq!(s.wi, mirror_dir(wo));
+        assert_eq!(
+            (s.weight, s.pdf, s.is_delta),
+            (Rgb::new(0.9, 0.8, 0.7), 1.0, true)
+        );
+        // Angle of incidence equals angle of reflection, in the plane of incidence.
+        let n = DVec3::Z;
+        let (a, b) = (wo.as_dvec3(), s.wi.as_dvec3());
+        assert!((a.dot(n) - b.dot(n)).abs() < 1e-7 && a.cross(n).dot(b).abs() < 1e-7);
+    }
+}

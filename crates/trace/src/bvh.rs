@@ -1,0 +1,120 @@
+//! The scene's BVH (an obvhs compressed wide BVH8) and ray queries against it.
+use crate::geometry::intersect_triangle;
+use beamlight_scene::Scene;
+use glam::{Vec3, Vec3A};
+use obvhs::{BvhBuildParams, cwbvh::CwBvh, ray::Ray, triangle::Triangle as ObvhsTriangle};
+
+/// A closest hit: distance along the (unit) ray direction, triangle index and barycentrics.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    /// Index into `Scene::triangles`.
+    pub tri: u32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// BVH over all scene triangles, with vertex positions stored in leaf order for locality.
+pub struct Bvh {
+    bvh: Option<CwBvh>,
+    /// Positions in BVH leaf order: `positions[k]` is triangle `bvh.primitive_indices[k]`.
+    positions: Vec<[Vec3; 3]>,
+}
+
+impl Bvh {
+    pub fn build(scene: &Scene) -> Self {
+        Self::from_positions(scene.triangles.iter().map(|t| t.p).collect())
+    }
+
+    /// Builds over raw triangles (index = position in `tris`).
+    pub fn from_positions(tris: Vec<[Vec3; 3]>) -> Self {
+        if tris.is_empty() {
+            return Self { bvh: None, positions: Vec::new() };
+        }
+        let prims: Vec<ObvhsTriangle> = tris
+            .iter()
+            .map(|p| ObvhsTriangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() })
+            .collect();
+        let mut build_time = std::time::Duration::ZERO;
+        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&prims, BvhBuildParams::medium_build(), &mut build_time);
+        let positions = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
+        Self { bvh: Some(bvh), positions }
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Closest hit with `t` in `(0, tmax)` along `o + t·d` (`d` unit length).
+    pub fn closest_hit(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
+        let mut hit = obvhs::ray::RayHit::none();
+        let mut best = (0.0f32, 0.0f32);
+        let found = bvh.ray_traverse(ray, &mut hit, |r, k| {
+            match intersect_triangle(o, d, &self.positions[k], r.tmin, r.tmax) {
+                Some((t, b1, b2)) => {
+                    best = (b1, b2);
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        found.then(|| Hit { t: hit.t, tri: bvh.primitive_indices[hit.primitive_id as usize], b1: best.0, b2: best.1 })
+    }
+
+    /// True when anything lies on `o + t·d` for `t` in `(0, tmax)`.
+    pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else { return false };
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
+        !bvh.ray_traverse_miss(ray, |r, k| {
+            intersect_triangle(o, d, &self.positions[k], r.tmin, r.tmax).map_or(f32::INFINITY, |h| h.0)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use beamlight_scene::rng::Sampler;
+
+    /// The BVH must agree with brute force on random rays through a random triangle soup.
+    #[test]
+    fn agrees_with_brute_force() {
+        let mut s = Sampler::new(1, 0, 0);
+        let mut rnd = || Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+        let tris: Vec<[Vec3; 3]> = (0..2000)
+            .map(|_| {
+                let c = rnd() * 10.0;
+                [c + rnd() - 0.5, c + rnd() - 0.5, c + rnd() - 0.5]
+            })
+            .collect();
+        let bvh = Bvh::from_positions(tris.clone());
+        for _ in 0..2000 {
+            let o = rnd() * 12.0 - 1.0;
+            let d = (rnd() - 0.5).normalize();
+            let tmax = if rnd().x < 0.5 { f32::INFINITY } else { 5.0 };
+            let brute = tris
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| intersect_triangle(o, d, p, 0.0, tmax).map(|h| (h.0, i)))
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let hit = bvh.closest_hit(o, d, tmax);
+            assert_eq!(hit.map(|h| h.tri as usize), brute.map(|b| b.1));
+            if let (Some(h), Some(b)) = (hit, brute) {
+                assert_eq!(h.t, b.0);
+                let p = tris[h.tri as usize];
+                let q = p[0] * (1.0 - h.b1 - h.b2) + p[1] * h.b1 + p[2] * h.b2;
+                assert!((q - (o + d * h.t)).length() < 1e-3);
+            }
+            assert_eq!(bvh.occluded(o, d, tmax), brute.is_some());
+        }
+    }
+
+    #[test]
+    fn empty_scene_misses() {
+        let bvh = Bvh::from_positions(Vec::new());
+        assert!(bvh.closest_hit(Vec3::ZERO, Vec3::X, f32::INFINITY).is_none());
+        assert!(!bvh.occluded(Vec3::ZERO, Vec3::X, f32::INFINITY));
+    }
+}

@@ -1,0 +1,152 @@
+//! A scene prepared for tracing: BVH, light sampler and the media the rays start in.
+use crate::{
+    bvh::{Bvh, Hit},
+    geometry::{face_towards, offset_ray_origin},
+    lights::LightSampler,
+    media,
+};
+use beamlight_scene::{Rgb, Scene, bsdf::Material, rng::Sampler, scene::MediumId};
+use glam::Vec3;
+
+/// Null-interface crossings after which a ray is given up on (guards against pathological,
+/// e.g. self-overlapping, boundary meshes; a sane scene never gets close).
+pub const MAX_CROSSINGS: u32 = 256;
+
+/// Surface data at a ray hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub p: Vec3,
+    /// Unit geometric normal, on the glTF front side (counter-clockwise winding).
+    pub ng: Vec3,
+    /// Unit shading normal, flipped if needed to lie on the same side as `ng`.
+    pub ns: Vec3,
+    pub tri: u32,
+    pub material: u32,
+}
+
+pub struct TraceScene {
+    pub scene: Scene,
+    pub bvh: Bvh,
+    pub lights: LightSampler,
+    /// The medium the camera sits in.
+    pub camera_medium: MediumId,
+    /// Whether any triangle is an invisible medium boundary (shadow rays must then walk hits).
+    has_null_interfaces: bool,
+}
+
+impl TraceScene {
+    pub fn new(scene: Scene) -> Self {
+        let bvh = Bvh::build(&scene);
+        let lights = LightSampler::new(&scene);
+        let has_null_interfaces = scene.triangles.iter().any(|t| scene.materials[t.material as usize].bsdf.is_none());
+        let mut ts = Self { scene, bvh, lights, camera_medium: None, has_null_interfaces };
+        ts.camera_medium = ts.medium_at(ts.scene.camera.position());
+        ts
+    }
+
+    pub fn material(&self, hit: &SurfaceHit) -> &Material {
+        &self.scene.materials[hit.material as usize]
+    }
+
+    pub fn surface(&self, h: &Hit) -> SurfaceHit {
+        let t = &self.scene.triangles[h.tri as usize];
+        let p = t.p[0] * (1.0 - h.b1 - h.b2) + t.p[1] * h.b1 + t.p[2] * h.b2;
+        let ng = t.cross().normalize();
+        let ns = t.shading_normal(h.b1, h.b2);
+        let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+        SurfaceHit { p, ng, ns, tri: h.tri, material: t.material }
+    }
+
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(Hit, SurfaceHit)> {
+        self.bvh.closest_hit(o, d, tmax).map(|h| (h, self.surface(&h)))
+    }
+
+    /// The medium containing point `p`: found by following a ray to the first medium boundary
+    /// and checking which side of it `p` is on; the global medium (or vacuum) when none is hit.
+    pub fn medium_at(&self, p: Vec3) -> MediumId {
+        let d = Vec3::new(0.267_261_24, 0.534_522_5, 0.801_783_7); // any fixed, non axis-aligned direction
+        let mut o = p;
+        for _ in 0..MAX_CROSSINGS * 4 {
+            let Some((_, sh)) = self.intersect(o, d, f32::INFINITY) else { break };
+            if let Some(iface) = self.scene.triangles[sh.tri as usize].interface {
+                return if d.dot(sh.ng) > 0.0 { iface.inside } else { iface.outside };
+            }
+            o = offset_ray_origin(sh.p, face_towards(sh.ng, d));
+        }
+        self.scene.global_medium
+    }
+
+    /// Transmittance of `medium` along `o + t·d`, `t ∈ (0, len)`, ignoring surfaces.
+    pub fn medium_transmittance(&self, medium: MediumId, o: Vec3, d: Vec3, len: f32, s: &mut Sampler) -> Rgb {
+        match medium {
+            Some(i) => media::transmittance(&self.scene.media[i as usize], o, d, len, s),
+            None => Rgb::ONE,
+        }
+    }
+
+    /// Transmittance from `p` (a surface point if `n` is given) towards `wi` over distance `dist`
+    /// (∞ for directional lights) to a light point with normal `light_n`, starting in `medium`.
+    /// Zero when an opaque or refracting surface is in the way; invisible medium boundaries are
+    /// crossed and switch the medium.
+    pub fn shadow_transmittance(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+        wi: Vec3,
+        dist: f32,
+        light_n: Option<Vec3>,
+        mut medium: MediumId,
+        s: &mut Sampler,
+    ) -> Rgb {
+        let mut o = n.map_or(p, |n| offset_ray_origin(p, face_towards(n, wi)));
+        let target = if dist.is_finite() {
+            let q = p + wi * dist;
+            Some(light_n.map_or(q, |ln| offset_ray_origin(q, face_towards(ln, -wi))))
+        } else {
+            None
+        };
+        let (d, mut remaining) = match target {
+            Some(q) => {
+                let v = q - o;
+                let len = v.length();
+                if !(len > 0.0) {
+                    return Rgb::ZERO;
+                }
+                (v / len, len * (1.0 - 1e-4))
+            }
+            None => (wi, f32::INFINITY),
+        };
+        let mut tr = Rgb::ONE;
+        for _ in 0..MAX_CROSSINGS {
+            if !self.has_null_interfaces {
+                if self.bvh.occluded(o, d, remaining) {
+                    return Rgb::ZERO;
+                }
+                return tr * self.medium_transmittance(medium, o, d, remaining, s);
+            }
+            match self.intersect(o, d, remaining) {
+                None => return tr * self.medium_transmittance(medium, o, d, remaining, s),
+                Some((h, sh)) => {
+                    let tri = &self.scene.triangles[sh.tri as usize];
+                    if self.scene.materials[tri.material as usize].bsdf.is_some() {
+                        return Rgb::ZERO;
+                    }
+                    tr *= self.medium_transmittance(medium, o, d, h.t, s);
+                    if tr == Rgb::ZERO {
+                        return tr;
+                    }
+                    if let Some(iface) = tri.interface {
+                        medium = iface.entered(sh.ng, d);
+                    }
+                    let next = offset_ray_origin(sh.p, face_towards(sh.ng, d));
+                    remaining -= (next - o).dot(d);
+                    o = next;
+                    if !(remaining > 0.0) {
+                        return tr;
+                    }
+                }
+            }
+        }
+        Rgb::ZERO
+    }
+}

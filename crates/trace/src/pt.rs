@@ -1,0 +1,188 @@
+//! The reference volumetric path tracer: unbiased, next-event estimation through media with
+//! MIS (power heuristic) between light sampling and BSDF/phase sampling, Russian roulette.
+//! It is the ground truth every other estimator is measured against.
+use crate::{
+    context::{MAX_CROSSINGS, TraceScene},
+    geometry::{face_towards, offset_ray_origin},
+    media::{self, MediumEvent},
+};
+use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling::power_heuristic, scene::MediumId};
+use glam::{Vec2, Vec3};
+
+#[derive(Clone, Copy, Debug)]
+pub struct PathTracerSettings {
+    /// Maximum number of scattering events (surface or medium) on a path; `None` = unbounded.
+    /// 1 gives direct lighting / single scattering only.
+    pub max_depth: Option<u32>,
+    /// Scattering events before Russian roulette starts.
+    pub rr_depth: u32,
+}
+
+impl Default for PathTracerSettings {
+    fn default() -> Self {
+        Self { max_depth: None, rr_depth: 3 }
+    }
+}
+
+/// One radiance sample for pixel `(x, y)` of a `width × height` image: a jittered camera ray
+/// (box filter) traced with the pass's own random stream.
+pub fn sample_pixel(ts: &TraceScene, settings: &PathTracerSettings, x: u32, y: u32, width: u32, height: u32, s: &mut Sampler) -> Rgb {
+    let jitter = s.next_2d();
+    let film = Vec2::new((x as f32 + jitter.x) / width as f32, (y as f32 + jitter.y) / height as f32);
+    let cam = &ts.scene.camera;
+    let d = cam.direction(film, width as f32 / height as f32);
+    radiance(ts, settings, cam.position(), d, ts.camera_medium, s)
+}
+
+/// Radiance arriving at `o` from direction `-d`, for a ray starting in `medium`.
+pub fn radiance(ts: &TraceScene, settings: &PathTracerSettings, mut o: Vec3, mut d: Vec3, mut medium: MediumId, s: &mut Sampler) -> Rgb {
+    let scene = &ts.scene;
+    let max_depth = settings.max_depth.unwrap_or(u32::MAX);
+    let mut l = Rgb::ZERO;
+    let mut beta = Rgb::ONE;
+    let mut depth = 0u32;
+    // The last scattering vertex and the solid-angle pdf of the direction sampled there, for
+    // MIS weights when the ray hits an emitter; `specular` when that pdf was a delta.
+    let mut prev_p = o;
+    let mut prev_pdf = 0.0f32;
+    let mut specular = true;
+    let mut crossings = 0u32;
+
+    loop {
+        let hit = ts.intersect(o, d, f32::INFINITY);
+        let tmax = hit.map_or(f32::INFINITY, |(h, _)| h.t);
+
+        if let Some(mi) = medium {
+            let m = &scene.media[mi as usize];
+            match media::sample_distance(m, o, d, tmax, beta, s) {
+                MediumEvent::Scatter { t, weight } => {
+                    beta *= weight;
+                    depth += 1;
+                    if depth > max_depth || beta == Rgb::ZERO {
+                        break;
+                    }
+                    let p = o + d * t;
+                    let wo = -d;
+                    let phase = HenyeyGreenstein { g: m.g };
+                    if let Some(ls) = ts.lights.sample(scene, p, s) {
+                        let f = phase.eval(wo, ls.wi);
+                        if f > 0.0 {
+                            let tr = ts.shadow_transmittance(p, None, ls.wi, ls.dist, ls.n, medium, s);
+                            let w = if ls.pdf > 0.0 { power_heuristic(ls.pdf, phase.pdf(wo, ls.wi)) } else { 1.0 };
+                            l += beta * tr * ls.contribution * (f * w);
+                        }
+                    }
+                    let ps = phase.sample(wo, s.next_2d());
+                    beta *= ps.weight;
+                    prev_p = p;
+                    prev_pdf = ps.pdf;
+                    specular = false;
+                    o = p;
+                    d = ps.wi;
+                    if !russian_roulette(&mut beta, depth, settings.rr_depth, s) {
+                        break;
+                    }
+                    continue;
+                }
+                MediumEvent::Pass { weight } => {
+                    beta *= weight;
+                    if beta == Rgb::ZERO {
+                        break;
+                    }
+                }
+            }
+        }
+
+        let Some((h, sh)) = hit else { break };
+        let tri = &scene.triangles[h.tri as usize];
+        let mat = ts.material(&sh);
+
+        if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) {
+            let w = if specular {
+                1.0
+            } else {
+                power_heuristic(prev_pdf, ts.lights.pdf_hit(scene, prev_p, sh.tri, sh.p))
+            };
+            l += beta * mat.emission * w;
+        }
+
+        let Some(bsdf) = &mat.bsdf else {
+            // Invisible medium boundary: switch media and carry on in the same direction.
+            if let Some(iface) = tri.interface {
+                medium = iface.entered(sh.ng, d);
+            }
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                break;
+            }
+            o = offset_ray_origin(sh.p, face_towards(sh.ng, d));
+            continue;
+        };
+
+        depth += 1;
+        if depth > max_depth {
+            break;
+        }
+        let frame = Frame::from_normal(sh.ns);
+        let wo = -d;
+        let wo_local = frame.to_local(wo);
+        // Opaque surfaces reflect on the side the ray came from; a shading normal must not let
+        // light leak through (both directions must agree with the geometric normal's side).
+        let transmissive = matches!(bsdf, beamlight_scene::bsdf::Bsdf::Glass { .. });
+
+        if !bsdf.is_delta() {
+            if let Some(ls) = ts.lights.sample(scene, sh.p, s) {
+                let same_side = sh.ng.dot(ls.wi) * sh.ng.dot(wo) > 0.0;
+                let wi_local = frame.to_local(ls.wi);
+                let f = bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+                if (same_side || transmissive) && f != Rgb::ZERO {
+                    let tr = ts.shadow_transmittance(sh.p, Some(sh.ng), ls.wi, ls.dist, ls.n, medium, s);
+                    let w = if ls.pdf > 0.0 { power_heuristic(ls.pdf, bsdf.pdf(wo_local, wi_local)) } else { 1.0 };
+                    l += beta * f * tr * ls.contribution * w;
+                }
+            }
+        }
+
+        let u = s.next_2d();
+        let u_lobe = s.next_1d();
+        let Some(bs) = bsdf.sample(wo_local, u, u_lobe) else { break };
+        let wi = frame.to_world(bs.wi);
+        if !transmissive && sh.ng.dot(wi) * sh.ng.dot(wo) <= 0.0 {
+            break;
+        }
+        beta *= bs.weight;
+        prev_p = sh.p;
+        prev_pdf = bs.pdf;
+        specular = bs.is_delta;
+        if let Some(iface) = tri.interface {
+            medium = iface.entered(sh.ng, wi);
+        }
+        o = offset_ray_origin(sh.p, face_towards(sh.ng, wi));
+        d = wi;
+        if !russian_roulette(&mut beta, depth, settings.rr_depth, s) {
+            break;
+        }
+    }
+    l
+}
+
+/// Highest survival probability Russian roulette grants once it has started. Capping it below 1
+/// (as Mitsuba 3 does) keeps the estimator unbiased and guarantees that every path ends, even
+/// one wandering through an unbounded, non-absorbing medium where the throughput never drops.
+const MAX_SURVIVAL: f32 = 0.95;
+
+/// Russian roulette on the largest throughput channel; returns false when the path ends.
+fn russian_roulette(beta: &mut Rgb, depth: u32, rr_depth: u32, s: &mut Sampler) -> bool {
+    if !beta.is_finite() || *beta == Rgb::ZERO {
+        return false;
+    }
+    if depth < rr_depth {
+        return true;
+    }
+    let q = beta.max_element().min(MAX_SURVIVAL);
+    if s.next_1d() >= q {
+        return false;
+    }
+    *beta /= q;
+    true
+}

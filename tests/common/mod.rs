@@ -1,0 +1,145 @@
+//! Scenes built in code for the integration tests, and small render helpers.
+#![allow(dead_code)]
+use beamlight_render::{Budget, Film, Method, RenderOptions, render};
+use beamlight_scene::{
+    Rgb, Scene,
+    bsdf::{Bsdf, Material},
+    camera::Camera,
+    medium::Medium,
+    scene::{RenderSettings, Triangle},
+};
+use beamlight_trace::{TraceScene, pt::PathTracerSettings};
+use glam::{Mat4, Vec3};
+use std::time::Instant;
+
+pub fn material(name: &str, bsdf: Option<Bsdf>, emission: Rgb, double_sided: bool) -> Material {
+    Material { name: name.into(), bsdf, emission, double_sided }
+}
+
+pub fn lambert(name: &str, albedo: f32) -> Material {
+    material(name, Some(Bsdf::Lambert { albedo: Rgb::splat(albedo) }), Rgb::ZERO, false)
+}
+
+/// An empty scene with a camera at `eye` looking at `target`.
+pub fn empty_scene(eye: Vec3, target: Vec3, yfov_deg: f32, width: u32, height: u32) -> Scene {
+    let forward = (target - eye).normalize();
+    let up = if forward.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+    let right = forward.cross(up).normalize();
+    let to_world = Mat4::from_cols(right.extend(0.0), right.cross(forward).extend(0.0), (-forward).extend(0.0), eye.extend(1.0));
+    Scene {
+        source: "test".into(),
+        triangles: Vec::new(),
+        meshes: vec!["mesh".into()],
+        materials: Vec::new(),
+        media: Vec::new(),
+        global_medium: None,
+        lights: Vec::new(),
+        camera: Camera { to_world, yfov: yfov_deg.to_radians(), name: None },
+        render: RenderSettings { width, height },
+        warnings: Vec::new(),
+    }
+}
+
+pub fn add_material(scene: &mut Scene, m: Material) -> u32 {
+    scene.materials.push(m);
+    scene.materials.len() as u32 - 1
+}
+
+/// Adds the quad `corner + a·u + b·v`, a, b ∈ [0,1]; its front face looks along u × v.
+pub fn add_quad(scene: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32) {
+    let p = [corner, corner + u, corner + u + v, corner + v];
+    for idx in [[0, 1, 2], [0, 2, 3]] {
+        scene.triangles.push(Triangle { p: idx.map(|i| p[i]), n: None, material, interface: None, mesh: 0 });
+    }
+}
+
+/// Adds the six faces of the box [lo, hi], front faces pointing inwards.
+pub fn add_box_inward(scene: &mut Scene, lo: Vec3, hi: Vec3, material: u32) {
+    let e = hi - lo;
+    let (x, y, z) = (Vec3::X * e.x, Vec3::Y * e.y, Vec3::Z * e.z);
+    add_quad(scene, lo, x, y, material); // z = lo, normal +z
+    add_quad(scene, lo + z, y, x, material); // z = hi, normal −z
+    add_quad(scene, lo, z, x, material); // y = lo, normal +y
+    add_quad(scene, lo + y, x, z, material); // y = hi, normal −y
+    add_quad(scene, lo, y, z, material); // x = lo, normal +x
+    add_quad(scene, lo + x, z, y, material); // x = hi, normal −x
+}
+
+pub fn homogeneous(sigma_s: Rgb, sigma_a: Rgb, g: f32) -> Medium {
+    Medium { name: "medium".into(), sigma_s, sigma_a, g, density: None }
+}
+
+/// Renders `passes` samples per pixel with the path tracer.
+pub fn render_pt(scene: Scene, passes: u64, seed: u32, max_depth: Option<u32>) -> Film {
+    let (width, height) = (scene.render.width, scene.render.height);
+    let ts = TraceScene::new(scene);
+    let opts = RenderOptions {
+        method: Method::Pt,
+        width,
+        height,
+        budget: Budget::Passes(passes),
+        seed,
+        first_pass: 0,
+        path_tracer: PathTracerSettings { max_depth, ..Default::default() },
+        start: Instant::now(),
+    };
+    let r = render(&ts, &opts, |_, _| {}).unwrap();
+    assert_eq!(r.film.rejected, 0, "non-finite samples reached the film");
+    r.film
+}
+
+/// Fraction of pixel channels where |a − b| is within `k` combined standard errors (plus a small
+/// absolute slack for pixels with zero variance estimates).
+pub fn z_agreement(a: &Film, b: &Film, k: f32) -> f32 {
+    let (ia, ib) = (a.image(), b.image());
+    let (va, vb) = (a.variance_of_mean(), b.variance_of_mean());
+    let mut ok = 0;
+    let n = ia.pixels.len() * 3;
+    for i in 0..ia.pixels.len() {
+        for c in 0..3 {
+            let sd = (va.pixels[i][c] + vb.pixels[i][c]).sqrt();
+            if (ia.pixels[i][c] - ib.pixels[i][c]).abs() <= k * sd + 1e-6 {
+                ok += 1;
+            }
+        }
+    }
+    ok as f32 / n as f32
+}
+
+/// Checks every pixel channel of `film` against `expected(x, y)`: the difference must lie within
+/// `k` standard errors of the pixel's mean (estimated from the film) plus `rel`·expected.
+pub fn assert_pixels_match(film: &Film, k: f64, rel: f64, what: &str, expected: impl Fn(u32, u32) -> [f64; 3]) {
+    let (img, var) = (film.image(), film.variance_of_mean());
+    let mut worst = (0.0f64, 0, 0, 0);
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let e = expected(x, y);
+            for c in 0..3 {
+                let got = img.get(x, y)[c] as f64;
+                let sd = (var.get(x, y)[c] as f64).sqrt();
+                let z = (got - e[c]).abs() / (k * sd + rel * e[c].abs() + 1e-6);
+                if z > worst.0 {
+                    worst = (z, x, y, c);
+                }
+                assert!(z <= 1.0, "{what}: pixel ({x},{y}) channel {c}: {got} vs expected {} (σ of mean {sd})", e[c]);
+            }
+        }
+    }
+    eprintln!("{what}: worst pixel at {:.2} of the tolerance ({}, {}, ch {})", worst.0, worst.1, worst.2, worst.3);
+}
+
+/// Fraction of pixel channels within `k` standard errors of `expected(x, y)`.
+pub fn fraction_within(film: &Film, k: f64, expected: impl Fn(u32, u32) -> [f64; 3]) -> f64 {
+    let (img, var) = (film.image(), film.variance_of_mean());
+    let mut ok = 0;
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let e = expected(x, y);
+            for c in 0..3 {
+                let sd = (var.get(x, y)[c] as f64).sqrt();
+                ok += ((img.get(x, y)[c] as f64 - e[c]).abs() <= k * sd) as usize;
+            }
+        }
+    }
+    ok as f64 / (3 * img.pixels.len()) as f64
+}

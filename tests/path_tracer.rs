@@ -1,0 +1,295 @@
+//! The reference path tracer against answers computed independently of the renderer:
+//! furnaces, closed-form absorption, the single-scattering airlight integral, Lambert's
+//! polygon irradiance formula, and point/spot lights.
+mod common;
+use beamlight_scene::{
+    Rgb,
+    light::PunctualLight,
+    medium::DensityGrid,
+};
+use common::*;
+use glam::{UVec3, Vec3};
+use std::f64::consts::PI;
+
+/// Closed box whose walls emit 1 and reflect with albedo 0.5, filled with a purely scattering
+/// medium: radiance is 2 everywhere, whatever σs and g are.
+fn furnace(sigma_s: Rgb, g: f32, grid: Option<DensityGrid>) -> beamlight_scene::Scene {
+    let mut s = empty_scene(Vec3::new(0.1, -0.2, 0.3), Vec3::new(0.5, 0.3, -1.0), 70.0, 12, 12);
+    let wall = add_material(&mut s, material("wall", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::splat(0.5) }), Rgb::ONE, false));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    let mut m = homogeneous(sigma_s, Rgb::ZERO, g);
+    m.density = grid;
+    s.media.push(m);
+    s.global_medium = Some(0);
+    s
+}
+
+fn rmse_to(film: &beamlight_render::Film, v: f32) -> f64 {
+    let img = film.image();
+    let se: f64 = img.pixels.iter().map(|p| ((*p - Rgb::splat(v)).length_squared()) as f64).sum();
+    (se / (3 * img.pixels.len()) as f64).sqrt()
+}
+
+#[test]
+fn furnace_converges_to_two_for_any_medium() {
+    for (sigma_s, g) in [(Rgb::new(0.5, 1.0, 2.0), 0.0), (Rgb::splat(3.0), 0.9), (Rgb::new(0.1, 4.0, 1.0), -0.7)] {
+        let grey = sigma_s.max_element() == sigma_s.min_element();
+        let film = render_pt(furnace(sigma_s, g, None), if grey { 256 } else { 1024 }, 1, None);
+        let mean = film.image().mean();
+        assert!((mean - Rgb::splat(2.0)).abs().max_element() < 0.02, "σs {sigma_s} g {g}: mean {mean}");
+        if grey {
+            assert_pixels_match(&film, 5.0, 0.0, &format!("furnace σs {sigma_s} g {g}"), |_, _| [2.0; 3]);
+        } else {
+            // Chromatic media make the per-channel weights heavy-tailed, so a pixel's sample
+            // variance is itself noisy at this spp: ask for 98 % of pixels within 3 σ instead.
+            let frac = fraction_within(&film, 3.0, |_, _| [2.0; 3]);
+            assert!(frac >= 0.98, "σs {sigma_s} g {g}: only {frac} of pixels within 3σ of 2");
+        }
+    }
+}
+
+#[test]
+fn furnace_with_heterogeneous_density_converges_to_two() {
+    // A lumpy density field: delta tracking must still conserve energy exactly.
+    let res = UVec3::new(16, 16, 16);
+    let values = (0..res.x * res.y * res.z)
+        .map(|i| {
+            let (x, y, z) = ((i % 16) as f32, (i / 16 % 16) as f32, (i / 256) as f32);
+            2.0 * (0.5 + 0.5 * (x * 0.7).sin() * (y * 0.5 + z * 0.3).cos()).powi(2)
+        })
+        .collect();
+    let grid = DensityGrid::new(res, Vec3::splat(-1.0), Vec3::splat(1.0), values);
+    let film = render_pt(furnace(Rgb::new(0.5, 2.0, 1.0), 0.5, Some(grid)), 256, 2, None);
+    let mean = film.image().mean();
+    assert!((mean - Rgb::splat(2.0)).abs().max_element() < 0.02, "mean {mean}");
+}
+
+#[test]
+fn furnace_error_shrinks_like_inverse_sqrt_spp() {
+    let scene = furnace(Rgb::splat(1.0), 0.3, None);
+    let e1 = rmse_to(&render_pt(scene.clone(), 16, 3, None), 2.0);
+    let e4 = rmse_to(&render_pt(scene, 256, 4, None), 2.0);
+    let ratio = e1 / e4;
+    // 16× the samples: the error must drop by √16 = 4 (within statistical slack).
+    assert!((3.0..5.3).contains(&ratio), "error ratio {ratio} (rmse {e1} → {e4})");
+}
+
+/// Pure absorber in a box of black walls emitting 1: each camera ray sees exp(−σa·d), with d
+/// the distance from the camera (at the centre) to the box along the ray.
+#[test]
+fn absorption_matches_closed_form() {
+    let sigma_a = Rgb::new(0.2, 0.7, 1.5);
+    let (w, h, fov) = (10u32, 8u32, 80f32);
+    let mut s = empty_scene(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), fov, w, h);
+    let wall = add_material(&mut s, material("wall", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }), Rgb::ONE, false));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    s.media.push(homogeneous(Rgb::ZERO, sigma_a, 0.0));
+    s.global_medium = Some(0);
+    let film = render_pt(s, 1024, 5, None);
+    let tan = (fov.to_radians() as f64 * 0.5).tan();
+    let aspect = w as f64 / h as f64;
+    let n = 16;
+    assert_pixels_match(&film, 4.0, 0.002, "absorption", |x, y| {
+        let mut expected = [0f64; 3];
+        for j in 0..n {
+            for i in 0..n {
+                let fx = (x as f64 + (i as f64 + 0.5) / n as f64) / w as f64;
+                let fy = (y as f64 + (j as f64 + 0.5) / n as f64) / h as f64;
+                let d = [(2.0 * fx - 1.0) * tan * aspect, (1.0 - 2.0 * fy) * tan, -1.0];
+                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let dist = d.iter().map(|c| len / c.abs()).fold(f64::INFINITY, f64::min);
+                for c in 0..3 {
+                    expected[c] += (-(sigma_a[c] as f64) * dist).exp() / (n * n) as f64;
+                }
+            }
+        }
+        expected
+    });
+}
+
+fn hg(g: f64, cos: f64) -> f64 {
+    (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
+}
+
+fn adaptive_simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, eps: f64, depth: u32) -> f64 {
+    fn rec(f: &dyn Fn(f64) -> f64, a: f64, b: f64, fa: f64, fm: f64, fb: f64, whole: f64, eps: f64, depth: u32) -> f64 {
+        let m = 0.5 * (a + b);
+        let (lm, rm) = (0.5 * (a + m), 0.5 * (m + b));
+        let (flm, frm) = (f(lm), f(rm));
+        let left = (m - a) / 6.0 * (fa + 4.0 * flm + fm);
+        let right = (b - m) / 6.0 * (fm + 4.0 * frm + fb);
+        if depth == 0 || (left + right - whole).abs() <= 15.0 * eps {
+            return left + right + (left + right - whole) / 15.0;
+        }
+        rec(f, a, m, fa, flm, fm, left, eps / 2.0, depth - 1) + rec(f, m, b, fm, frm, fb, right, eps / 2.0, depth - 1)
+    }
+    let (fa, fb, fm) = (f(a), f(b), f(0.5 * (a + b)));
+    rec(f, a, b, fa, fm, fb, (b - a) / 6.0 * (fa + 4.0 * fm + fb), eps, depth)
+}
+
+/// Single scattering of a point light in an unbounded homogeneous medium (the airlight
+/// integral), with an anisotropic phase function, rendered with `--max-depth 1`.
+#[test]
+fn single_scattering_matches_airlight_integral() {
+    let sigma_s = Rgb::new(0.3, 0.15, 0.05);
+    let sigma_a = Rgb::new(0.05, 0.1, 0.0);
+    let g = 0.5f32;
+    let light = Vec3::new(0.4, 0.1, -2.0);
+    let intensity = Rgb::new(10.0, 20.0, 5.0);
+    let (w, h, fov) = (6u32, 6u32, 30f32);
+    let mut s = empty_scene(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), fov, w, h);
+    s.media.push(homogeneous(sigma_s, sigma_a, g));
+    s.global_medium = Some(0);
+    s.lights.push(PunctualLight::Point { position: light, intensity });
+    let film = render_pt(s, 1024, 6, Some(1));
+    let tan = (fov.to_radians() as f64 * 0.5).tan();
+    let l = [light.x as f64, light.y as f64, light.z as f64];
+    let n = 4;
+    assert_pixels_match(&film, 4.0, 0.01, "airlight", |x, y| {
+        let mut expected = [0f64; 3];
+        for j in 0..n {
+            for i in 0..n {
+                let fx = (x as f64 + (i as f64 + 0.5) / n as f64) / w as f64;
+                let fy = (y as f64 + (j as f64 + 0.5) / n as f64) / h as f64;
+                let d = [(2.0 * fx - 1.0) * tan, (1.0 - 2.0 * fy) * tan, -1.0];
+                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let d = d.map(|c| c / len);
+                for c in 0..3 {
+                    let st = (sigma_s[c] + sigma_a[c]) as f64;
+                    let f = |t: f64| {
+                        let v = [t * d[0] - l[0], t * d[1] - l[1], t * d[2] - l[2]];
+                        let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+                        let r = r2.sqrt();
+                        // Light travels along v/r, then towards the camera along −d.
+                        let cos = -(v[0] * d[0] + v[1] * d[1] + v[2] * d[2]) / r;
+                        sigma_s[c] as f64 * (-st * (t + r)).exp() * hg(g as f64, cos) * intensity[c] as f64 / r2
+                    };
+                    let far = 80.0 / st.max(0.05);
+                    expected[c] += adaptive_simpson(&f, 0.0, far, 1e-9, 40) / (n * n) as f64;
+                }
+            }
+        }
+        expected
+    });
+}
+
+/// Irradiance at `p` (normal `n`) from a polygon of uniform radiance `radiance` (Lambert's formula).
+fn polygon_irradiance(p: [f64; 3], n: [f64; 3], poly: &[[f64; 3]], radiance: f64) -> f64 {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let norm = |a: [f64; 3]| {
+        let l = dot(a, a).sqrt();
+        [a[0] / l, a[1] / l, a[2] / l]
+    };
+    let mut sum = 0.0;
+    for i in 0..poly.len() {
+        let a = norm(sub(poly[i], p));
+        let b = norm(sub(poly[(i + 1) % poly.len()], p));
+        let angle = dot(a, b).clamp(-1.0, 1.0).acos();
+        sum += angle * dot(norm(cross(a, b)), n);
+    }
+    (0.5 * radiance * sum).abs()
+}
+
+/// A Lambert floor lit by a square area light (direct only through geometry: the light is
+/// black, the floor is the only reflector), against Lambert's polygon irradiance formula.
+/// Exercises light sampling, BSDF sampling and their MIS weights together.
+#[test]
+fn area_light_on_lambert_floor_matches_polygon_formula() {
+    let (w, h, fov) = (8u32, 6u32, 20f32);
+    let eye = Vec3::new(0.0, 0.6, 2.5);
+    let target = Vec3::new(0.0, 0.0, 0.0);
+    let mut s = empty_scene(eye, target, fov, w, h);
+    let albedo = 0.6f32;
+    let floor = add_material(&mut s, lambert("floor", albedo));
+    let radiance = 5.0f32;
+    let light = add_material(&mut s, material("light", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }), Rgb::splat(radiance), false));
+    add_quad(&mut s, Vec3::new(-10.0, 0.0, 10.0), Vec3::new(20.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -20.0), floor);
+    // Emitter at height 1 facing down (front = u × v = −y).
+    let (c, u, v) = (Vec3::new(-0.3, 1.0, -0.4), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.6));
+    add_quad(&mut s, c, u, v, light);
+    let cam = s.camera.clone();
+    let film = render_pt(s, 1024, 7, None);
+    let poly: Vec<[f64; 3]> = [c, c + u, c + u + v, c + v].iter().map(|p| [p.x as f64, p.y as f64, p.z as f64]).collect();
+    let n = 6;
+    assert_pixels_match(&film, 4.0, 0.005, "area light", |x, y| {
+        let mut expected = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                let film = glam::Vec2::new((x as f32 + (i as f32 + 0.5) / n as f32) / w as f32, (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32);
+                let d = cam.direction(film, w as f32 / h as f32);
+                let t = -eye.y / d.y;
+                let p = eye + d * t;
+                let e = polygon_irradiance([p.x as f64, p.y as f64, p.z as f64], [0.0, 1.0, 0.0], &poly, radiance as f64);
+                expected += albedo as f64 / PI * e / (n * n) as f64;
+            }
+        }
+        [expected; 3]
+    });
+}
+
+/// Point and glTF spot lights on a Lambert floor: L = ρ/π · I(ω) · cosθ / d².
+#[test]
+fn punctual_lights_on_lambert_floor() {
+    let (w, h, fov) = (8u32, 8u32, 60f32);
+    let eye = Vec3::new(0.0, 3.0, 0.01);
+    for spot in [false, true] {
+        let mut s = empty_scene(eye, Vec3::ZERO, fov, w, h);
+        let floor = add_material(&mut s, lambert("floor", 0.5));
+        add_quad(&mut s, Vec3::new(-10.0, 0.0, 10.0), Vec3::new(20.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -20.0), floor);
+        let pos = Vec3::new(0.3, 1.0, 0.2);
+        let intensity = Rgb::splat(4.0);
+        let (cos_inner, cos_outer) = (20f32.to_radians().cos(), 35f32.to_radians().cos());
+        s.lights.push(if spot {
+            PunctualLight::Spot { position: pos, direction: -Vec3::Y, intensity, cos_inner, cos_outer }
+        } else {
+            PunctualLight::Point { position: pos, intensity }
+        });
+        let cam = s.camera.clone();
+        let light = s.lights[0].clone();
+        let film = render_pt(s, 512, 8, None);
+        let n = 16;
+        assert_pixels_match(&film, 4.0, 0.005, if spot { "spot light" } else { "point light" }, |x, y| {
+            let mut expected = 0.0f64;
+            for j in 0..n {
+                for i in 0..n {
+                    let film = glam::Vec2::new((x as f32 + (i as f32 + 0.5) / n as f32) / w as f32, (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32);
+                    let d = cam.direction(film, 1.0);
+                    let p = eye + d * (-eye.y / d.y);
+                    let to = pos - p;
+                    let r2 = to.length_squared() as f64;
+                    let cos = (to.y as f64) / r2.sqrt();
+                    let i_dir = light.intensity_towards(-to.normalize()).x as f64;
+                    expected += 0.5 / PI * i_dir * cos / r2 / (n * n) as f64;
+                }
+            }
+            [expected; 3]
+        });
+    }
+}
+
+/// A density grid of constant 1 must give the same image as the homogeneous medium.
+#[test]
+fn constant_grid_matches_homogeneous_medium() {
+    let make = |grid: bool| {
+        let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 16, 16);
+        let wall = add_material(&mut s, lambert("wall", 0.7));
+        let light = add_material(&mut s, material("light", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }), Rgb::splat(8.0), false));
+        add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+        add_quad(&mut s, Vec3::new(-0.3, 0.99, -0.3), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.6), light);
+        let mut m = homogeneous(Rgb::new(0.8, 0.4, 1.6), Rgb::new(0.2, 0.1, 0.0), 0.4);
+        if grid {
+            m.density = Some(DensityGrid::constant(UVec3::new(9, 7, 11), Vec3::splat(-1.5), Vec3::splat(1.5), 1.0));
+        }
+        s.media.push(m);
+        s.global_medium = Some(0);
+        s
+    };
+    let a = render_pt(make(false), 256, 10, None);
+    let b = render_pt(make(true), 256, 11, None);
+    let (ma, mb) = (a.image().mean(), b.image().mean());
+    assert!(((ma - mb) / ma).abs().max_element() < 0.02, "means {ma} vs {mb}");
+    let agree = z_agreement(&a, &b, 3.0);
+    assert!(agree > 0.98, "only {agree} of pixels agree within 3σ");
+}

@@ -1,0 +1,208 @@
+//! The bundled scenes in `assets/scenes/`, generated in code so they are reproducible.
+//!
+//! Everything here is deterministic: running `cargo xtask assets` twice writes byte-identical
+//! files, and `cargo xtask assets --check` fails when the committed files differ.
+use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, NodeDesc, shapes};
+use glam::{Quat, Vec3};
+
+/// (path relative to the workspace root, contents) of every generated asset.
+pub fn files() -> Vec<(String, Vec<u8>)> {
+    vec![
+        (
+            "assets/scenes/cornell.gltf".into(),
+            cornell_gltf().into_bytes(),
+        ),
+        (
+            "assets/scenes/cornell.toml".into(),
+            CORNELL_TOML.as_bytes().to_vec(),
+        ),
+        (
+            "assets/scenes/cornell_fog.toml".into(),
+            CORNELL_FOG_TOML.as_bytes().to_vec(),
+        ),
+        (
+            "assets/scenes/furnace.gltf".into(),
+            furnace_gltf().into_bytes(),
+        ),
+        (
+            "assets/scenes/furnace.toml".into(),
+            FURNACE_TOML.as_bytes().to_vec(),
+        ),
+    ]
+}
+
+/// Depth of the room: the Cornell box proper is z ∈ [−1, 1]; the room continues to
+/// z = `ROOM_FRONT` so that it is closed behind the camera.
+const ROOM_FRONT: f32 = 4.0;
+
+/// Cornell-style box x ∈ [−1, 1], y ∈ [0, 2], z ∈ [−1, 1], seen through its open front from the
+/// classic viewpoint (camera 2.9 in front of the opening, yfov 39.3°), except that the walls,
+/// floor and ceiling continue to z = 4 where a front wall closes the room behind the camera:
+/// the scene is closed, so a global medium is bounded and no light escapes. All wall normals
+/// point into the room.
+fn cornell_gltf() -> String {
+    let mut b = GltfBuilder::new();
+    let white = b.material(MaterialDesc::lambert("White", [0.75, 0.75, 0.75]));
+    let red = b.material(MaterialDesc::lambert("Red", [0.63, 0.065, 0.05]));
+    let green = b.material(MaterialDesc::lambert("Green", [0.14, 0.45, 0.091]));
+    let light = b.material(MaterialDesc::emitter("Light", [15.0, 15.0, 15.0]));
+    let sphere_mat = b.material(MaterialDesc::lambert("Sphere", [0.75, 0.75, 0.75]));
+
+    let depth = ROOM_FRONT + 1.0;
+    let walls: [(&str, Vec3, Vec3, Vec3, u32); 6] = [
+        (
+            "Floor",
+            Vec3::new(-1.0, 0.0, ROOM_FRONT),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -depth),
+            white,
+        ),
+        (
+            "Ceiling",
+            Vec3::new(-1.0, 2.0, -1.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, depth),
+            white,
+        ),
+        (
+            "BackWall",
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            white,
+        ),
+        (
+            "FrontWall",
+            Vec3::new(1.0, 0.0, ROOM_FRONT),
+            Vec3::new(-2.0, 0.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            white,
+        ),
+        (
+            "LeftWall",
+            Vec3::new(-1.0, 0.0, ROOM_FRONT),
+            Vec3::new(0.0, 0.0, -depth),
+            Vec3::new(0.0, 2.0, 0.0),
+            red,
+        ),
+        (
+            "RightWall",
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, depth),
+            Vec3::new(0.0, 2.0, 0.0),
+            green,
+        ),
+    ];
+    for (name, corner, u, v, mat) in walls {
+        let (p, i) = shapes::quad(corner, u, v);
+        b.mesh(name, &p, &i, None, Some(mat));
+    }
+    // Ceiling light: 0.5 × 0.5 above the box centre, 0.01 below the ceiling, emitting downwards.
+    let (p, i) = shapes::quad(
+        Vec3::new(-0.25, 1.99, -0.25),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.5),
+    );
+    b.mesh("Light", &p, &i, None, Some(light));
+
+    // Tall box 0.6 × 1.2 × 0.6 standing on the floor, rotated 20° about +Y (a node transform).
+    let (p, i) = shapes::cuboid(Vec3::new(-0.3, 0.0, -0.3), Vec3::new(0.3, 1.2, 0.3), true);
+    let tall = b.add_mesh("TallBox", &p, &i, None, Some(white));
+    b.node(
+        NodeDesc::new("TallBox")
+            .with_mesh(tall)
+            .with_translation(Vec3::new(-0.35, 0.0, -0.35))
+            .with_rotation(Quat::from_rotation_y(20f32.to_radians())),
+    );
+
+    // Sphere of radius 0.35 resting on the floor, smooth normals.
+    let (p, i) = shapes::uv_sphere(Vec3::ZERO, 0.35, 24, 48);
+    let n: Vec<Vec3> = p.iter().map(|p| p.normalize()).collect();
+    let sphere = b.add_mesh("Sphere", &p, &i, Some(&n), Some(sphere_mat));
+    b.node(
+        NodeDesc::new("Sphere")
+            .with_mesh(sphere)
+            .with_translation(Vec3::new(0.45, 0.35, 0.25)),
+    );
+
+    b.camera_look_at(
+        "Camera",
+        Vec3::new(0.0, 1.0, 3.9),
+        Vec3::new(0.0, 1.0, -1.0),
+        Vec3::Y,
+        39.3f32.to_radians(),
+        Some(1.0),
+    );
+    b.to_json_string()
+}
+
+const CORNELL_TOML: &str = r#"# Cornell-style closed box without a medium. Generated by `cargo xtask assets`; see assets/README.md.
+gltf = "cornell.gltf"
+
+[render]
+width = 256
+height = 256
+camera = "Camera"
+"#;
+
+const CORNELL_FOG_TOML: &str = r#"# The Cornell box filled with homogeneous fog: optical thickness 0.32 across the 2-unit box,
+# 0.79 from the camera to the back wall (4.9 units).
+# Generated by `cargo xtask assets`; see assets/README.md.
+gltf = "cornell.gltf"
+
+[render]
+width = 256
+height = 256
+camera = "Camera"
+
+[[media]]
+name = "fog"
+region = "global"
+sigma_s = [0.15, 0.15, 0.15]
+sigma_a = [0.01, 0.01, 0.01]
+g = 0.3
+
+[materials.Sphere]
+kind = "phong"
+diffuse = [0.2, 0.2, 0.2]
+specular = [0.6, 0.6, 0.6]
+exponent = 80
+"#;
+
+/// Closed cube [−1, 1]³, normals pointing inward, every wall emitting radiance 1 with albedo 0.5
+/// (double-sided too, so orientation cannot matter). Camera at the centre.
+fn furnace_gltf() -> String {
+    let mut b = GltfBuilder::new();
+    let mut wall = MaterialDesc::lambert("Wall", [0.5, 0.5, 0.5]).with_emission([1.0, 1.0, 1.0]);
+    wall.double_sided = true;
+    let wall = b.material(wall);
+    let (p, i) = shapes::cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), false);
+    b.mesh("Box", &p, &i, None, Some(wall));
+    b.camera_look_at(
+        "Camera",
+        Vec3::ZERO,
+        Vec3::NEG_Z,
+        Vec3::Y,
+        60f32.to_radians(),
+        Some(1.0),
+    );
+    b.to_json_string()
+}
+
+const FURNACE_TOML: &str = r#"# Furnace test: a closed box whose walls emit radiance 1 and reflect with albedo 0.5, filled
+# with a purely scattering medium (sigma_a = 0). Every pixel converges to 1 / (1 - 0.5) = 2.0,
+# whatever sigma_s and g are. Generated by `cargo xtask assets`; see assets/README.md.
+gltf = "furnace.gltf"
+
+[render]
+width = 64
+height = 64
+camera = "Camera"
+
+[[media]]
+name = "scatterer"
+region = "global"
+sigma_s = [0.5, 0.75, 1.0]
+sigma_a = [0.0, 0.0, 0.0]
+g = 0.3
+"#;
