@@ -143,3 +143,13 @@ pub fn fraction_within(film: &Film, k: f64, expected: impl Fn(u32, u32) -> [f64;
     }
     ok as f64 / (3 * img.pixels.len()) as f64
 }
+
+/// Adds an indexed mesh (e.g. from `gltf_writer::shapes`) as triangles of mesh `mesh_index`.
+pub fn add_mesh(scene: &mut Scene, mesh: (Vec<Vec3>, Vec<u32>), material: u32, interface: Option<beamlight_scene::scene::MediumInterface>) {
+    let (p, idx) = mesh;
+    let mesh_index = scene.meshes.len() as u32;
+    scene.meshes.push(format!("mesh{mesh_index}"));
+    for t in idx.chunks_exact(3) {
+        scene.triangles.push(Triangle { p: [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]], n: None, material, interface, mesh: mesh_index });
+    }
+}

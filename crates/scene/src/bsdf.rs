@@ -4,6 +4,7 @@
 //! they reflect on whichever side `wo` lies. `eval` returns the BSDF value f (without the cosine);
 //! `pdf` is a solid-angle density; delta lobes (mirror, glass) have `eval`/`pdf` zero and are
 //! only reachable through `sample`.
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` deliberately also catches NaN
 use crate::frame::Frame;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::{Rgb, luminance_mean};
@@ -129,7 +130,7 @@ impl Bsdf {
     ) -> Option<BsdfSample> {
         match self {
             Bsdf::Lambert { albedo } => {
-                if wo.z == 0.0 {
+                if wo.z == 0.0 || albedo.max_element() <= 0.0 {
                     return None;
                 }
                 let wi = cosine_hemisphere(u);

@@ -4,6 +4,7 @@
 //! directions). The warps are written so that no input in [0, 1]² produces NaN or a non-unit
 //! vector: square roots get arguments clamped at zero and `1 − cos²` is formed as a product of
 //! two factors whenever one of them is known exactly.
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` deliberately also catches NaN
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, TAU};
 

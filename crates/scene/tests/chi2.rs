@@ -136,7 +136,7 @@ fn chi2_uniform_cone() {
         };
         chi2_sphere(
             &format!("uniform cone cos_max = {cos_max}"),
-            &grid_around(Vec3::Z, p),
+            &grid_around(Vec3::Z, p).with_jump(DVec3::Z, cos_max as f64),
             N,
             13 + k,
             alpha(),
@@ -189,8 +189,9 @@ fn chi2_distribution_1d() {
         let (k, pmf) = d.sample(Sampler::new(16, 0, i as u32).next_1d());
         assert!(weights[k] > 0.0, "picked zero-weight item {k}");
         let want = weights[k] as f64 / total;
+        // The pmf is a difference of f32 CDF entries (~1e-7 absolute error near 1).
         assert!(
-            ((pmf as f64) - want).abs() < 1e-5 * want,
+            ((pmf as f64) - want).abs() < 1e-3 * want,
             "pmf({k}) = {pmf}, want {want}"
         );
         observed[k] += 1.0;
@@ -314,27 +315,28 @@ fn chi2_henyey_greenstein_extreme_g_in_double_precision() {
 
 #[test]
 fn henyey_greenstein_integrates_to_one() {
-    // θ-concentrated quadrature (rows ∝ t³ around the peak) resolves lobes of width 1e-3.
-    for g in [-0.999f32, -0.9, -0.3, 0.0, 1e-7, 0.5, 0.95, 0.999] {
+    // θ-concentrated fixed quadrature (rows ∝ t⁴ around the peak, 512 × 8 nodes in t) resolves
+    // lobes down to a width of 1e-5; adaptive quadrature would chase the f32 rounding noise.
+    let gs = [
+        -0.99999f32,
+        -0.999,
+        -0.9,
+        -0.3,
+        0.0,
+        1e-7,
+        0.5,
+        0.95,
+        0.999,
+        0.99999,
+    ];
+    for g in gs {
         let hg = HenyeyGreenstein { g };
         let wo = hg_wo();
         let axis = if g >= 0.0 { -wo } else { wo };
-        let grid = grid_around(axis, 3.0);
-        let integral = grid.integrate_sphere(&|wi| hg.eval(wo, wi) as f64, 1e-7);
+        let grid = grid_around(axis, 4.0);
+        let integral = grid.integrate_sphere(&|wi| hg.eval(wo, wi) as f64, 512, 4);
         assert!(
             (integral - 1.0).abs() < 1e-4,
-            "g = {g}: ∫ p dω = {integral}"
-        );
-    }
-    // At g = ±0.99999 the peak (width 1e-5) is near the angular resolution of f32 vectors,
-    // so only a looser check is meaningful.
-    for g in [-0.99999f32, 0.99999] {
-        let hg = HenyeyGreenstein { g };
-        let wo = hg_wo();
-        let grid = grid_around(if g >= 0.0 { -wo } else { wo }, 4.0);
-        let integral = grid.integrate_sphere(&|wi| hg.eval(wo, wi) as f64, 1e-7);
-        assert!(
-            (integral - 1.0).abs() < 2e-2,
             "g = {g}: ∫ p dω = {integral}"
         );
     }
@@ -370,7 +372,11 @@ fn bsdf_sampler(m: &Bsdf, wo: Vec3) -> impl FnMut(&mut Sampler) -> Option<Vec3> 
     }
 }
 
-fn chi2_bsdf(name: &str, m: &Bsdf, wo: Vec3, grid: &SphereGrid, seed: u32) {
+fn chi2_bsdf(name: &str, m: &Bsdf, wo: Vec3, grid: SphereGrid, seed: u32) {
+    // The horizon, and the edge cos α = 0 of the Phong lobe (a kink, or a jump for n = 0).
+    let grid = &grid
+        .with_jump(DVec3::Z, 0.0)
+        .with_jump(mirror_dir(wo).as_dvec3(), 0.0);
     chi2_sphere(
         name,
         grid,
@@ -387,8 +393,8 @@ fn chi2_lambert() {
     let m = Bsdf::Lambert {
         albedo: Rgb::new(0.8, 0.5, 0.2),
     };
-    chi2_bsdf("Lambert, wo above", &m, dir(0.3, -0.5, 0.8), &z_grid(), 50);
-    chi2_bsdf("Lambert, wo below", &m, dir(-0.6, 0.2, -0.3), &z_grid(), 51);
+    chi2_bsdf("Lambert, wo above", &m, dir(0.3, -0.5, 0.8), z_grid(), 50);
+    chi2_bsdf("Lambert, wo below", &m, dir(-0.6, 0.2, -0.3), z_grid(), 51);
 }
 
 fn phong(kd: f32, ks: f32, n: f32) -> Bsdf {
@@ -417,53 +423,57 @@ fn chi2_phong_low_exponents() {
             &format!("Phong n = {n}, θo = {theta}° (world grid)"),
             &m,
             at_angle(theta),
-            &z_grid(),
+            z_grid(),
             60 + k as u32,
         );
     }
 }
 
+/// Phong on a grid around the mirror direction with rows concentrated near it (θ = π t^p).
+fn chi2_phong_lobe_grid(n: f32, theta: f32, kd: f32, ks: f32, p: f64, seed: u32) {
+    let m = phong(kd, ks, n);
+    let wo = at_angle(theta);
+    let grid = grid_around(mirror_dir(wo), p);
+    chi2_bsdf(
+        &format!("Phong n = {n}, θo = {theta}° (lobe grid)"),
+        &m,
+        wo,
+        grid,
+        seed,
+    );
+}
+
 #[test]
 fn chi2_phong_high_exponents() {
-    // Grid around the mirror direction with rows concentrated near it, plus a world grid for
-    // the grazing case where the horizon clips the lobe.
-    let cases = [
-        (80.0, 70.0, 0.1, 0.8, 2.0),
-        (100.0, 10.0, 0.0, 1.0, 2.0),
-        (100.0, 150.0, 0.2, 0.7, 2.0), // wo below the surface: the two-sided flip
-        (100.0, 85.0, 0.0, 1.0, 2.0),  // grazing: a large part of the lobe is rejected
-        (1000.0, 40.0, 0.05, 0.9, 3.0),
-    ];
-    for (k, (n, theta, kd, ks, p)) in cases.into_iter().enumerate() {
-        let m = phong(kd, ks, n);
-        let wo = at_angle(theta);
-        let grid = grid_around(mirror_dir(wo), p);
-        chi2_bsdf(
-            &format!("Phong n = {n}, θo = {theta}° (lobe grid)"),
-            &m,
-            wo,
-            &grid,
-            70 + k as u32,
-        );
-    }
+    chi2_phong_lobe_grid(100.0, 10.0, 0.0, 1.0, 2.0, 70);
+    chi2_phong_lobe_grid(80.0, 70.0, 0.1, 0.8, 2.0, 71);
+    chi2_phong_lobe_grid(1000.0, 40.0, 0.05, 0.9, 3.0, 72);
+}
+
+#[test]
+fn chi2_phong_grazing_and_below() {
+    // wo below the surface: the two-sided flip.
+    chi2_phong_lobe_grid(100.0, 150.0, 0.2, 0.7, 2.0, 73);
+    // Grazing: the horizon clips a large part of the lobe, those samples are rejected.
+    chi2_phong_lobe_grid(100.0, 85.0, 0.0, 1.0, 2.0, 74);
+    // The same clipping seen on the world grid, where the horizon is a row boundary.
     let m = phong(0.1, 0.8, 80.0);
     chi2_bsdf(
         "Phong n = 80, θo = 70° (world grid)",
         &m,
         at_angle(70.0),
-        &z_grid(),
+        z_grid(),
         80,
     );
 }
 
 #[test]
 fn lambert_and_phong_directional_albedo() {
-    let eps = 1e-6;
     let albedo_of = |m: &Bsdf, wo: Vec3| {
         let r = mirror_dir(wo);
         // Centre the grid on the lobe; rows ∝ t³ resolve exponents up to ~1e4.
-        let grid = grid_around(r, 3.0);
-        grid.integrate_sphere(&|wi| (m.eval(wo, wi).x * wi.z.abs()) as f64, eps)
+        let grid = grid_around(r, 3.0).with_jump(DVec3::Z, 0.0);
+        grid.integrate_sphere(&|wi| (m.eval(wo, wi).x * wi.z.abs()) as f64, 256, 16)
     };
     let lambert = Bsdf::Lambert {
         albedo: Rgb::new(0.7, 0.1, 0.3),
@@ -485,9 +495,12 @@ fn lambert_and_phong_directional_albedo() {
             (a - (kd + ks) as f64).abs() < 1e-4,
             "Phong n = {n} at normal incidence: {a}"
         );
-        // Elsewhere it loses energy (mostly at grazing angles) but never gains any.
+        // Elsewhere it never gains energy and loses more towards grazing. The specular part
+        // is not just clipped by the horizon: (n+2)/(2π) ∫ cos^n α cos θi dω = cos θo for a
+        // whole lobe (cos θi averages to cos α cos θo around the mirror direction), so the
+        // modified Phong albedo is kd + ks cos θo minus what the horizon clips.
         let mut previous = a;
-        for theta in [20.0, 45.0, 70.0, 85.0, 89.5] {
+        for theta in [20.0f32, 45.0, 70.0, 85.0, 89.5] {
             let a = albedo_of(&m, at_angle(theta));
             assert!(
                 a <= (kd + ks) as f64 + 1e-4,
@@ -497,6 +510,13 @@ fn lambert_and_phong_directional_albedo() {
                 a <= previous + 1e-4,
                 "Phong n = {n}: albedo grows towards grazing ({a} > {previous})"
             );
+            if n >= 20.0 && theta <= 45.0 {
+                let whole_lobe = (kd + ks * theta.to_radians().cos()) as f64;
+                assert!(
+                    (a - whole_lobe).abs() < 1e-3,
+                    "Phong n = {n}, θo = {theta}°: {a} vs {whole_lobe}"
+                );
+            }
             previous = a;
         }
     }
