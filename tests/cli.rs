@@ -7,7 +7,10 @@ use std::{
 };
 
 fn beamlight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_beamlight")).args(args).output().expect("run beamlight")
+    Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(args)
+        .output()
+        .expect("run beamlight")
 }
 
 fn root() -> PathBuf {
@@ -19,7 +22,14 @@ fn stderr(o: &Output) -> String {
 }
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--method", "pt"];
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        "pt",
+    ];
     args.extend_from_slice(extra);
     beamlight(&args)
 }
@@ -31,18 +41,43 @@ fn bundled_scenes_render_finite_images_with_metadata() {
         let scene = root().join(format!("assets/scenes/{name}.toml"));
         let out = dir.path().join(format!("{name}.exr"));
         let png = dir.path().join(format!("{name}.png"));
-        let o = render(&scene, &out, &["--spp", "4", "--width", "48", "--height", "40", "--preview", png.to_str().unwrap()]);
+        let o = render(
+            &scene,
+            &out,
+            &[
+                "--spp",
+                "4",
+                "--width",
+                "48",
+                "--height",
+                "40",
+                "--preview",
+                png.to_str().unwrap(),
+            ],
+        );
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         let (img, meta) = read_exr(&out).unwrap();
         assert_eq!((img.width, img.height), (48, 40));
-        assert!(img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0), "{name}: non-finite or negative pixel");
+        assert!(
+            img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0),
+            "{name}: non-finite or negative pixel"
+        );
         assert!(img.mean().max_element() > 0.0, "{name}: black image");
-        for key in ["beamlight.method", "beamlight.spp", "beamlight.seed", "beamlight.render_seconds"] {
+        for key in [
+            "beamlight.method",
+            "beamlight.spp",
+            "beamlight.seed",
+            "beamlight.render_seconds",
+        ] {
             assert!(meta.iter().any(|(k, _)| k == key), "{name}: missing {key}");
         }
         assert!(meta.contains(&("beamlight.rejected_samples".into(), "0".into())));
         assert!(std::fs::metadata(&png).unwrap().len() > 0);
-        assert!(stderr(&o).contains("done: pt"), "{name}: no summary line: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("done: pt"),
+            "{name}: no summary line: {}",
+            stderr(&o)
+        );
     }
 }
 
@@ -50,22 +85,52 @@ fn bundled_scenes_render_finite_images_with_metadata() {
 fn furnace_asset_converges_to_two() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("f.exr");
-    let o = render(&root().join("assets/scenes/furnace.toml"), &out, &["--spp", "64", "--width", "16", "--height", "16"]);
+    let o = render(
+        &root().join("assets/scenes/furnace.toml"),
+        &out,
+        &["--spp", "64", "--width", "16", "--height", "16"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let mean = read_exr(&out).unwrap().0.mean();
-    assert!((mean - glam::Vec3::splat(2.0)).abs().max_element() < 0.03, "furnace mean {mean}");
+    assert!(
+        (mean - glam::Vec3::splat(2.0)).abs().max_element() < 0.03,
+        "furnace mean {mean}"
+    );
 }
 
 #[test]
 fn same_seed_same_image_and_compare_reports_metrics() {
     let dir = tempfile::tempdir().unwrap();
     let scene = root().join("assets/scenes/cornell_fog.toml");
-    let (a, b, c) = (dir.path().join("a.exr"), dir.path().join("b.exr"), dir.path().join("c.exr"));
+    let (a, b, c) = (
+        dir.path().join("a.exr"),
+        dir.path().join("b.exr"),
+        dir.path().join("c.exr"),
+    );
     for (out, seed) in [(&a, "3"), (&b, "3"), (&c, "4")] {
-        let o = render(&scene, out, &["--spp", "2", "--width", "24", "--height", "24", "--seed", seed, "--threads", "2"]);
+        let o = render(
+            &scene,
+            out,
+            &[
+                "--spp",
+                "2",
+                "--width",
+                "24",
+                "--height",
+                "24",
+                "--seed",
+                seed,
+                "--threads",
+                "2",
+            ],
+        );
         assert!(o.status.success(), "{}", stderr(&o));
     }
-    assert_eq!(read_exr(&a).unwrap().0, read_exr(&b).unwrap().0, "a pass must be a pure function of its seed");
+    assert_eq!(
+        read_exr(&a).unwrap().0,
+        read_exr(&b).unwrap().0,
+        "a pass must be a pure function of its seed"
+    );
     let o = beamlight(&["compare", a.to_str().unwrap(), c.to_str().unwrap()]);
     assert!(o.status.success());
     let text = String::from_utf8_lossy(&o.stdout);
@@ -74,17 +139,29 @@ fn same_seed_same_image_and_compare_reports_metrics() {
     }
     // Size mismatch is an error naming both files.
     let small = dir.path().join("small.exr");
-    assert!(render(&scene, &small, &["--spp", "1", "--width", "8", "--height", "8"]).status.success());
+    assert!(
+        render(&scene, &small, &["--spp", "1", "--width", "8", "--height", "8"])
+            .status
+            .success()
+    );
     let o = beamlight(&["compare", a.to_str().unwrap(), small.to_str().unwrap()]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("sizes differ") && stderr(&o).contains("small.exr"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("sizes differ") && stderr(&o).contains("small.exr"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
 fn gltf_alone_renders_and_info_describes_the_scene() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("g.exr");
-    let o = render(&root().join("assets/scenes/cornell.gltf"), &out, &["--spp", "1", "--width", "16", "--height", "16"]);
+    let o = render(
+        &root().join("assets/scenes/cornell.gltf"),
+        &out,
+        &["--spp", "1", "--width", "16", "--height", "16"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let o = beamlight(&["info", root().join("assets/scenes/cornell_fog.toml").to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -109,10 +186,18 @@ fn broken_scenes_fail_cleanly_without_output() {
         let out = dir.path().join(format!("{name}.exr"));
         let o = render(&path, &out, &["--spp", "1"]);
         let err = stderr(&o);
-        assert_eq!(o.status.code(), Some(1), "{name}: expected a clean failure, got {:?}: {err}", o.status);
+        assert_eq!(
+            o.status.code(),
+            Some(1),
+            "{name}: expected a clean failure, got {:?}: {err}",
+            o.status
+        );
         assert!(!err.contains("panicked"), "{name}: panicked: {err}");
         assert!(err.starts_with("error: "), "{name}: {err}");
-        assert!(err.contains(&name) || err.contains(path.to_str().unwrap()), "{name}: error does not name the file: {err}");
+        assert!(
+            err.contains(&name) || err.contains(path.to_str().unwrap()),
+            "{name}: error does not name the file: {err}"
+        );
         assert!(!out.exists(), "{name}: output file left behind");
         cases += 1;
     }
@@ -124,7 +209,12 @@ fn bad_command_lines_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let scene = root().join("assets/scenes/cornell.toml");
     let out = dir.path().join("x.exr");
-    for extra in [&["--spp", "0"][..], &["--time=-1"], &["--width", "0"], &["--backend", "gpu"]] {
+    for extra in [
+        &["--spp", "0"][..],
+        &["--time=-1"],
+        &["--width", "0"],
+        &["--backend", "gpu"],
+    ] {
         let o = render(&scene, &out, extra);
         assert_eq!(o.status.code(), Some(1), "{extra:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"));

@@ -2,11 +2,7 @@
 //! furnaces, closed-form absorption, the single-scattering airlight integral, Lambert's
 //! polygon irradiance formula, and point/spot lights.
 mod common;
-use beamlight_scene::{
-    Rgb,
-    light::PunctualLight,
-    medium::DensityGrid,
-};
+use beamlight_scene::{Rgb, light::PunctualLight, medium::DensityGrid};
 use common::*;
 use glam::{UVec3, Vec3};
 use std::f64::consts::PI;
@@ -15,7 +11,17 @@ use std::f64::consts::PI;
 /// medium: radiance is 2 everywhere, whatever σs and g are.
 fn furnace(sigma_s: Rgb, g: f32, grid: Option<DensityGrid>) -> beamlight_scene::Scene {
     let mut s = empty_scene(Vec3::new(0.1, -0.2, 0.3), Vec3::new(0.5, 0.3, -1.0), 70.0, 12, 12);
-    let wall = add_material(&mut s, material("wall", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::splat(0.5) }), Rgb::ONE, false));
+    let wall = add_material(
+        &mut s,
+        material(
+            "wall",
+            Some(beamlight_scene::bsdf::Bsdf::Lambert {
+                albedo: Rgb::splat(0.5),
+            }),
+            Rgb::ONE,
+            false,
+        ),
+    );
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
     let mut m = homogeneous(sigma_s, Rgb::ZERO, g);
     m.density = grid;
@@ -26,19 +32,32 @@ fn furnace(sigma_s: Rgb, g: f32, grid: Option<DensityGrid>) -> beamlight_scene::
 
 fn rmse_to(film: &beamlight_render::Film, v: f32) -> f64 {
     let img = film.image();
-    let se: f64 = img.pixels.iter().map(|p| ((*p - Rgb::splat(v)).length_squared()) as f64).sum();
+    let se: f64 = img
+        .pixels
+        .iter()
+        .map(|p| ((*p - Rgb::splat(v)).length_squared()) as f64)
+        .sum();
     (se / (3 * img.pixels.len()) as f64).sqrt()
 }
 
 #[test]
 fn furnace_converges_to_two_for_any_medium() {
-    for (sigma_s, g) in [(Rgb::new(0.5, 1.0, 2.0), 0.0), (Rgb::splat(3.0), 0.9), (Rgb::new(0.1, 4.0, 1.0), -0.7)] {
+    for (sigma_s, g) in [
+        (Rgb::new(0.5, 1.0, 2.0), 0.0),
+        (Rgb::splat(3.0), 0.9),
+        (Rgb::new(0.1, 4.0, 1.0), -0.7),
+    ] {
         let grey = sigma_s.max_element() == sigma_s.min_element();
         let film = render_pt(furnace(sigma_s, g, None), if grey { 256 } else { 1024 }, 1, None);
         let mean = film.image().mean();
-        assert!((mean - Rgb::splat(2.0)).abs().max_element() < 0.02, "σs {sigma_s} g {g}: mean {mean}");
+        assert!(
+            (mean - Rgb::splat(2.0)).abs().max_element() < 0.02,
+            "σs {sigma_s} g {g}: mean {mean}"
+        );
         if grey {
-            assert_pixels_match(&film, 5.0, 0.0, &format!("furnace σs {sigma_s} g {g}"), |_, _| [2.0; 3]);
+            assert_pixels_match(&film, 5.0, 0.0, &format!("furnace σs {sigma_s} g {g}"), |_, _| {
+                [2.0; 3]
+            });
         } else {
             // Chromatic media make the per-channel weights heavy-tailed, so a pixel's sample
             // variance is itself noisy at this spp: ask for 98 % of pixels within 3 σ instead.
@@ -81,7 +100,15 @@ fn absorption_matches_closed_form() {
     let sigma_a = Rgb::new(0.2, 0.7, 1.5);
     let (w, h, fov) = (10u32, 8u32, 80f32);
     let mut s = empty_scene(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), fov, w, h);
-    let wall = add_material(&mut s, material("wall", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }), Rgb::ONE, false));
+    let wall = add_material(
+        &mut s,
+        material(
+            "wall",
+            Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
+            Rgb::ONE,
+            false,
+        ),
+    );
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
     s.media.push(homogeneous(Rgb::ZERO, sigma_a, 0.0));
     s.global_medium = Some(0);
@@ -140,7 +167,10 @@ fn single_scattering_matches_airlight_integral() {
     let mut s = empty_scene(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), fov, w, h);
     s.media.push(homogeneous(sigma_s, sigma_a, g));
     s.global_medium = Some(0);
-    s.lights.push(PunctualLight::Point { position: light, intensity });
+    s.lights.push(PunctualLight::Point {
+        position: light,
+        intensity,
+    });
     let film = render_pt(s, 1024, 6, Some(1));
     let tan = (fov.to_radians() as f64 * 0.5).tan();
     let l = [light.x as f64, light.y as f64, light.z as f64];
@@ -177,7 +207,13 @@ fn single_scattering_matches_airlight_integral() {
 fn polygon_irradiance(p: [f64; 3], n: [f64; 3], poly: &[[f64; 3]], radiance: f64) -> f64 {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
     let norm = |a: [f64; 3]| {
         let l = dot(a, a).sqrt();
         [a[0] / l, a[1] / l, a[2] / l]
@@ -204,24 +240,53 @@ fn area_light_on_lambert_floor_matches_polygon_formula() {
     let albedo = 0.6f32;
     let floor = add_material(&mut s, lambert("floor", albedo));
     let radiance = 5.0f32;
-    let light = add_material(&mut s, material("light", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }), Rgb::splat(radiance), false));
-    add_quad(&mut s, Vec3::new(-10.0, 0.0, 10.0), Vec3::new(20.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -20.0), floor);
+    let light = add_material(
+        &mut s,
+        material(
+            "light",
+            Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
+            Rgb::splat(radiance),
+            false,
+        ),
+    );
+    add_quad(
+        &mut s,
+        Vec3::new(-10.0, 0.0, 10.0),
+        Vec3::new(20.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -20.0),
+        floor,
+    );
     // Emitter at height 1 facing down (front = u × v = −y).
-    let (c, u, v) = (Vec3::new(-0.3, 1.0, -0.4), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.6));
+    let (c, u, v) = (
+        Vec3::new(-0.3, 1.0, -0.4),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.6),
+    );
     add_quad(&mut s, c, u, v, light);
     let cam = s.camera.clone();
     let film = render_pt(s, 1024, 7, None);
-    let poly: Vec<[f64; 3]> = [c, c + u, c + u + v, c + v].iter().map(|p| [p.x as f64, p.y as f64, p.z as f64]).collect();
+    let poly: Vec<[f64; 3]> = [c, c + u, c + u + v, c + v]
+        .iter()
+        .map(|p| [p.x as f64, p.y as f64, p.z as f64])
+        .collect();
     let n = 6;
     assert_pixels_match(&film, 4.0, 0.005, "area light", |x, y| {
         let mut expected = 0.0;
         for j in 0..n {
             for i in 0..n {
-                let film = glam::Vec2::new((x as f32 + (i as f32 + 0.5) / n as f32) / w as f32, (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32);
+                let film = glam::Vec2::new(
+                    (x as f32 + (i as f32 + 0.5) / n as f32) / w as f32,
+                    (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32,
+                );
                 let d = cam.direction(film, w as f32 / h as f32);
                 let t = -eye.y / d.y;
                 let p = eye + d * t;
-                let e = polygon_irradiance([p.x as f64, p.y as f64, p.z as f64], [0.0, 1.0, 0.0], &poly, radiance as f64);
+                let e = polygon_irradiance(
+                    [p.x as f64, p.y as f64, p.z as f64],
+                    [0.0, 1.0, 0.0],
+                    &poly,
+                    radiance as f64,
+                );
                 expected += albedo as f64 / PI * e / (n * n) as f64;
             }
         }
@@ -237,35 +302,59 @@ fn punctual_lights_on_lambert_floor() {
     for spot in [false, true] {
         let mut s = empty_scene(eye, Vec3::ZERO, fov, w, h);
         let floor = add_material(&mut s, lambert("floor", 0.5));
-        add_quad(&mut s, Vec3::new(-10.0, 0.0, 10.0), Vec3::new(20.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -20.0), floor);
+        add_quad(
+            &mut s,
+            Vec3::new(-10.0, 0.0, 10.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -20.0),
+            floor,
+        );
         let pos = Vec3::new(0.3, 1.0, 0.2);
         let intensity = Rgb::splat(4.0);
         let (cos_inner, cos_outer) = (20f32.to_radians().cos(), 35f32.to_radians().cos());
         s.lights.push(if spot {
-            PunctualLight::Spot { position: pos, direction: -Vec3::Y, intensity, cos_inner, cos_outer }
+            PunctualLight::Spot {
+                position: pos,
+                direction: -Vec3::Y,
+                intensity,
+                cos_inner,
+                cos_outer,
+            }
         } else {
-            PunctualLight::Point { position: pos, intensity }
+            PunctualLight::Point {
+                position: pos,
+                intensity,
+            }
         });
         let cam = s.camera.clone();
         let light = s.lights[0].clone();
         let film = render_pt(s, 512, 8, None);
         let n = 16;
-        assert_pixels_match(&film, 4.0, 0.005, if spot { "spot light" } else { "point light" }, |x, y| {
-            let mut expected = 0.0f64;
-            for j in 0..n {
-                for i in 0..n {
-                    let film = glam::Vec2::new((x as f32 + (i as f32 + 0.5) / n as f32) / w as f32, (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32);
-                    let d = cam.direction(film, 1.0);
-                    let p = eye + d * (-eye.y / d.y);
-                    let to = pos - p;
-                    let r2 = to.length_squared() as f64;
-                    let cos = (to.y as f64) / r2.sqrt();
-                    let i_dir = light.intensity_towards(-to.normalize()).x as f64;
-                    expected += 0.5 / PI * i_dir * cos / r2 / (n * n) as f64;
+        assert_pixels_match(
+            &film,
+            4.0,
+            0.005,
+            if spot { "spot light" } else { "point light" },
+            |x, y| {
+                let mut expected = 0.0f64;
+                for j in 0..n {
+                    for i in 0..n {
+                        let film = glam::Vec2::new(
+                            (x as f32 + (i as f32 + 0.5) / n as f32) / w as f32,
+                            (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32,
+                        );
+                        let d = cam.direction(film, 1.0);
+                        let p = eye + d * (-eye.y / d.y);
+                        let to = pos - p;
+                        let r2 = to.length_squared() as f64;
+                        let cos = (to.y as f64) / r2.sqrt();
+                        let i_dir = light.intensity_towards(-to.normalize()).x as f64;
+                        expected += 0.5 / PI * i_dir * cos / r2 / (n * n) as f64;
+                    }
                 }
-            }
-            [expected; 3]
-        });
+                [expected; 3]
+            },
+        );
     }
 }
 
@@ -275,12 +364,31 @@ fn constant_grid_matches_homogeneous_medium() {
     let make = |grid: bool| {
         let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 16, 16);
         let wall = add_material(&mut s, lambert("wall", 0.7));
-        let light = add_material(&mut s, material("light", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }), Rgb::splat(8.0), false));
+        let light = add_material(
+            &mut s,
+            material(
+                "light",
+                Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
+                Rgb::splat(8.0),
+                false,
+            ),
+        );
         add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
-        add_quad(&mut s, Vec3::new(-0.3, 0.99, -0.3), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.6), light);
+        add_quad(
+            &mut s,
+            Vec3::new(-0.3, 0.99, -0.3),
+            Vec3::new(0.6, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.6),
+            light,
+        );
         let mut m = homogeneous(Rgb::new(0.8, 0.4, 1.6), Rgb::new(0.2, 0.1, 0.0), 0.4);
         if grid {
-            m.density = Some(DensityGrid::constant(UVec3::new(9, 7, 11), Vec3::splat(-1.5), Vec3::splat(1.5), 1.0));
+            m.density = Some(DensityGrid::constant(
+                UVec3::new(9, 7, 11),
+                Vec3::splat(-1.5),
+                Vec3::splat(1.5),
+                1.0,
+            ));
         }
         s.media.push(m);
         s.global_medium = Some(0);
@@ -302,13 +410,40 @@ fn bounded_media_switch_at_invisible_boundaries() {
     use beamlight_scene::{gltf_writer::shapes, scene::MediumInterface};
     let (w, h, fov) = (8u32, 8u32, 70f32);
     let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.2, 0.1, -1.0), fov, w, h);
-    let wall = add_material(&mut s, material("wall", Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }), Rgb::ONE, false));
+    let wall = add_material(
+        &mut s,
+        material(
+            "wall",
+            Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
+            Rgb::ONE,
+            false,
+        ),
+    );
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
     let boundary = add_material(&mut s, material("boundary", None, Rgb::ZERO, false));
-    let boxes = [(Vec3::new(-0.3, -0.3, 0.2), Vec3::new(0.3, 0.3, 0.8), Rgb::new(1.0, 2.0, 0.5)), (Vec3::new(-0.9, -0.9, -0.9), Vec3::new(0.9, 0.9, -0.2), Rgb::new(0.8, 0.3, 1.5))];
+    let boxes = [
+        (
+            Vec3::new(-0.3, -0.3, 0.2),
+            Vec3::new(0.3, 0.3, 0.8),
+            Rgb::new(1.0, 2.0, 0.5),
+        ),
+        (
+            Vec3::new(-0.9, -0.9, -0.9),
+            Vec3::new(0.9, 0.9, -0.2),
+            Rgb::new(0.8, 0.3, 1.5),
+        ),
+    ];
     for (i, (lo, hi, sigma_a)) in boxes.iter().enumerate() {
         s.media.push(homogeneous(Rgb::ZERO, *sigma_a, 0.0));
-        add_mesh(&mut s, shapes::cuboid(*lo, *hi, true), boundary, Some(MediumInterface { inside: Some(i as u32), outside: None }));
+        add_mesh(
+            &mut s,
+            shapes::cuboid(*lo, *hi, true),
+            boundary,
+            Some(MediumInterface {
+                inside: Some(i as u32),
+                outside: None,
+            }),
+        );
     }
     let cam = s.camera.clone();
     let eye = cam.position();
@@ -324,7 +459,10 @@ fn bounded_media_switch_at_invisible_boundaries() {
         let mut e = [0f64; 3];
         for j in 0..n {
             for i in 0..n {
-                let f = glam::Vec2::new((x as f32 + (i as f32 + 0.5) / n as f32) / w as f32, (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32);
+                let f = glam::Vec2::new(
+                    (x as f32 + (i as f32 + 0.5) / n as f32) / w as f32,
+                    (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32,
+                );
                 let d = cam.direction(f, 1.0);
                 let mut od = [0f64; 3];
                 for (lo, hi, sa) in &boxes {
@@ -351,11 +489,38 @@ fn furnace_with_glass_and_mirror_stays_at_two() {
     use beamlight_scene::{bsdf::Bsdf, gltf_writer::shapes, scene::MediumInterface};
     let mut s = furnace(Rgb::splat(0.4), 0.2, None);
     s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, 12, 12).camera;
-    let glass = add_material(&mut s, material("glass", Some(Bsdf::Glass { ior: 1.5, tint: Rgb::ONE }), Rgb::ZERO, false));
-    let mirror = add_material(&mut s, material("mirror", Some(Bsdf::Mirror { reflectance: Rgb::ONE }), Rgb::ZERO, false));
+    let glass = add_material(
+        &mut s,
+        material(
+            "glass",
+            Some(Bsdf::Glass {
+                ior: 1.5,
+                tint: Rgb::ONE,
+            }),
+            Rgb::ZERO,
+            false,
+        ),
+    );
+    let mirror = add_material(
+        &mut s,
+        material("mirror", Some(Bsdf::Mirror { reflectance: Rgb::ONE }), Rgb::ZERO, false),
+    );
     s.media.push(homogeneous(Rgb::new(2.0, 1.0, 3.0), Rgb::ZERO, -0.3));
-    add_mesh(&mut s, shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, 24, 48), glass, Some(MediumInterface { inside: Some(1), outside: Some(0) }));
-    add_mesh(&mut s, shapes::cuboid(Vec3::new(0.2, -0.6, -0.8), Vec3::new(0.7, -0.1, -0.3), true), mirror, None);
+    add_mesh(
+        &mut s,
+        shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, 24, 48),
+        glass,
+        Some(MediumInterface {
+            inside: Some(1),
+            outside: Some(0),
+        }),
+    );
+    add_mesh(
+        &mut s,
+        shapes::cuboid(Vec3::new(0.2, -0.6, -0.8), Vec3::new(0.7, -0.1, -0.3), true),
+        mirror,
+        None,
+    );
     let film = render_pt(s, 1024, 13, None);
     let mean = film.image().mean();
     assert!((mean - Rgb::splat(2.0)).abs().max_element() < 0.02, "mean {mean}");

@@ -13,11 +13,23 @@ use glam::{Mat4, Vec3};
 use std::time::Instant;
 
 pub fn material(name: &str, bsdf: Option<Bsdf>, emission: Rgb, double_sided: bool) -> Material {
-    Material { name: name.into(), bsdf, emission, double_sided }
+    Material {
+        name: name.into(),
+        bsdf,
+        emission,
+        double_sided,
+    }
 }
 
 pub fn lambert(name: &str, albedo: f32) -> Material {
-    material(name, Some(Bsdf::Lambert { albedo: Rgb::splat(albedo) }), Rgb::ZERO, false)
+    material(
+        name,
+        Some(Bsdf::Lambert {
+            albedo: Rgb::splat(albedo),
+        }),
+        Rgb::ZERO,
+        false,
+    )
 }
 
 /// An empty scene with a camera at `eye` looking at `target`.
@@ -25,7 +37,12 @@ pub fn empty_scene(eye: Vec3, target: Vec3, yfov_deg: f32, width: u32, height: u
     let forward = (target - eye).normalize();
     let up = if forward.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
     let right = forward.cross(up).normalize();
-    let to_world = Mat4::from_cols(right.extend(0.0), right.cross(forward).extend(0.0), (-forward).extend(0.0), eye.extend(1.0));
+    let to_world = Mat4::from_cols(
+        right.extend(0.0),
+        right.cross(forward).extend(0.0),
+        (-forward).extend(0.0),
+        eye.extend(1.0),
+    );
     Scene {
         source: "test".into(),
         triangles: Vec::new(),
@@ -34,7 +51,11 @@ pub fn empty_scene(eye: Vec3, target: Vec3, yfov_deg: f32, width: u32, height: u
         media: Vec::new(),
         global_medium: None,
         lights: Vec::new(),
-        camera: Camera { to_world, yfov: yfov_deg.to_radians(), name: None },
+        camera: Camera {
+            to_world,
+            yfov: yfov_deg.to_radians(),
+            name: None,
+        },
         render: RenderSettings { width, height },
         warnings: Vec::new(),
     }
@@ -49,7 +70,13 @@ pub fn add_material(scene: &mut Scene, m: Material) -> u32 {
 pub fn add_quad(scene: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32) {
     let p = [corner, corner + u, corner + u + v, corner + v];
     for idx in [[0, 1, 2], [0, 2, 3]] {
-        scene.triangles.push(Triangle { p: idx.map(|i| p[i]), n: None, material, interface: None, mesh: 0 });
+        scene.triangles.push(Triangle {
+            p: idx.map(|i| p[i]),
+            n: None,
+            material,
+            interface: None,
+            mesh: 0,
+        });
     }
 }
 
@@ -66,7 +93,13 @@ pub fn add_box_inward(scene: &mut Scene, lo: Vec3, hi: Vec3, material: u32) {
 }
 
 pub fn homogeneous(sigma_s: Rgb, sigma_a: Rgb, g: f32) -> Medium {
-    Medium { name: "medium".into(), sigma_s, sigma_a, g, density: None }
+    Medium {
+        name: "medium".into(),
+        sigma_s,
+        sigma_a,
+        g,
+        density: None,
+    }
 }
 
 /// Renders `passes` samples per pixel with the path tracer.
@@ -80,7 +113,10 @@ pub fn render_pt(scene: Scene, passes: u64, seed: u32, max_depth: Option<u32>) -
         budget: Budget::Passes(passes),
         seed,
         first_pass: 0,
-        path_tracer: PathTracerSettings { max_depth, ..Default::default() },
+        path_tracer: PathTracerSettings {
+            max_depth,
+            ..Default::default()
+        },
         start: Instant::now(),
     };
     let r = render(&ts, &opts, |_, _| {}).unwrap();
@@ -121,11 +157,18 @@ pub fn assert_pixels_match(film: &Film, k: f64, rel: f64, what: &str, expected: 
                 if z > worst.0 {
                     worst = (z, x, y, c);
                 }
-                assert!(z <= 1.0, "{what}: pixel ({x},{y}) channel {c}: {got} vs expected {} (σ of mean {sd})", e[c]);
+                assert!(
+                    z <= 1.0,
+                    "{what}: pixel ({x},{y}) channel {c}: {got} vs expected {} (σ of mean {sd})",
+                    e[c]
+                );
             }
         }
     }
-    eprintln!("{what}: worst pixel at {:.2} of the tolerance ({}, {}, ch {})", worst.0, worst.1, worst.2, worst.3);
+    eprintln!(
+        "{what}: worst pixel at {:.2} of the tolerance ({}, {}, ch {})",
+        worst.0, worst.1, worst.2, worst.3
+    );
 }
 
 /// Fraction of pixel channels within `k` standard errors of `expected(x, y)`.
@@ -145,11 +188,22 @@ pub fn fraction_within(film: &Film, k: f64, expected: impl Fn(u32, u32) -> [f64;
 }
 
 /// Adds an indexed mesh (e.g. from `gltf_writer::shapes`) as triangles of mesh `mesh_index`.
-pub fn add_mesh(scene: &mut Scene, mesh: (Vec<Vec3>, Vec<u32>), material: u32, interface: Option<beamlight_scene::scene::MediumInterface>) {
+pub fn add_mesh(
+    scene: &mut Scene,
+    mesh: (Vec<Vec3>, Vec<u32>),
+    material: u32,
+    interface: Option<beamlight_scene::scene::MediumInterface>,
+) {
     let (p, idx) = mesh;
     let mesh_index = scene.meshes.len() as u32;
     scene.meshes.push(format!("mesh{mesh_index}"));
     for t in idx.chunks_exact(3) {
-        scene.triangles.push(Triangle { p: [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]], n: None, material, interface, mesh: mesh_index });
+        scene.triangles.push(Triangle {
+            p: [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]],
+            n: None,
+            material,
+            interface,
+            mesh: mesh_index,
+        });
     }
 }

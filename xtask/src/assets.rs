@@ -8,26 +8,14 @@ use glam::{Quat, Vec3};
 /// (path relative to the workspace root, contents) of every generated asset.
 pub fn files() -> Vec<(String, Vec<u8>)> {
     vec![
-        (
-            "assets/scenes/cornell.gltf".into(),
-            cornell_gltf().into_bytes(),
-        ),
-        (
-            "assets/scenes/cornell.toml".into(),
-            CORNELL_TOML.as_bytes().to_vec(),
-        ),
+        ("assets/scenes/cornell.gltf".into(), cornell_gltf().into_bytes()),
+        ("assets/scenes/cornell.toml".into(), CORNELL_TOML.as_bytes().to_vec()),
         (
             "assets/scenes/cornell_fog.toml".into(),
             CORNELL_FOG_TOML.as_bytes().to_vec(),
         ),
-        (
-            "assets/scenes/furnace.gltf".into(),
-            furnace_gltf().into_bytes(),
-        ),
-        (
-            "assets/scenes/furnace.toml".into(),
-            FURNACE_TOML.as_bytes().to_vec(),
-        ),
+        ("assets/scenes/furnace.gltf".into(), furnace_gltf().into_bytes()),
+        ("assets/scenes/furnace.toml".into(), FURNACE_TOML.as_bytes().to_vec()),
     ]
 }
 

@@ -19,14 +19,7 @@ fn base() -> GltfBuilder {
         Vec3::new(0.0, 0.0, -6.0),
     );
     b.mesh("Plane", &p, &i, None, Some(white));
-    b.camera_look_at(
-        "Camera",
-        Vec3::new(0.0, 0.5, 5.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.8,
-        None,
-    );
+    b.camera_look_at("Camera", Vec3::new(0.0, 0.5, 5.0), Vec3::ZERO, Vec3::Y, 0.8, None);
     b
 }
 
@@ -45,8 +38,7 @@ pub fn files() -> Vec<(String, Vec<u8>)> {
 
     out.push((
         "malformed_json.gltf",
-        b"{\n  \"asset\": { \"version\": \"2.0\" },\n  \"nodes\": [ { \"name\": \"Box\" ]\n}\n"
-            .to_vec(),
+        b"{\n  \"asset\": { \"version\": \"2.0\" },\n  \"nodes\": [ { \"name\": \"Box\" ]\n}\n".to_vec(),
     ));
 
     let glb = base().to_glb_bytes();
@@ -75,9 +67,7 @@ pub fn files() -> Vec<(String, Vec<u8>)> {
     ));
     out.push((
         "bad_base64.gltf",
-        patched(|v| {
-            v["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,@@not base64@@")
-        }),
+        patched(|v| v["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,@@not base64@@")),
     ));
 
     // Index 8 into a mesh with 8 vertices.

@@ -61,8 +61,7 @@ fn sync(files: &[(String, Vec<u8>)], check: bool) -> Result<()> {
             stale.push(rel.clone());
         } else {
             if let Some(dir) = path.parent() {
-                std::fs::create_dir_all(dir)
-                    .with_context(|| format!("creating {}", dir.display()))?;
+                std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
             }
             std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
             println!("wrote {rel} ({} bytes)", bytes.len());
@@ -93,9 +92,7 @@ fn run(cmd: &mut Command) -> Result<()> {
 
 fn ci() -> Result<()> {
     if !Path::new(LAVAPIPE_ICD).exists() {
-        eprintln!(
-            "Mesa lavapipe not found ({LAVAPIPE_ICD}); installing mesa-vulkan-drivers with apt-get"
-        );
+        eprintln!("Mesa lavapipe not found ({LAVAPIPE_ICD}); installing mesa-vulkan-drivers with apt-get");
         let is_root = Command::new("id")
             .arg("-u")
             .output()

@@ -12,7 +12,11 @@ use std::{
 };
 
 #[derive(Parser)]
-#[command(name = "beamlight", version, about = "Progressive virtual beam lights: a renderer for participating media")]
+#[command(
+    name = "beamlight",
+    version,
+    about = "Progressive virtual beam lights: a renderer for participating media"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -106,7 +110,10 @@ const DEFAULT_PASSES: u64 = 64;
 
 fn render(args: RenderArgs, start: Instant) -> Result<()> {
     if let Some(n) = args.threads {
-        rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global().context("cannot set up the thread pool")?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+            .context("cannot set up the thread pool")?;
     }
     let method = match args.method {
         MethodArg::Pt => Method::Pt,
@@ -121,7 +128,9 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         );
     }
     let backend = match args.backend {
-        BackendArg::Gpu => bail!("--backend gpu: the path tracer runs on the CPU only (GPU kernels serve the many-light methods)"),
+        BackendArg::Gpu => {
+            bail!("--backend gpu: the path tracer runs on the CPU only (GPU kernels serve the many-light methods)")
+        }
         BackendArg::Auto | BackendArg::Cpu => "cpu",
     };
     let budget = match (args.passes.or(args.spp), args.time) {
@@ -132,10 +141,10 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         (None, None) => Budget::Passes(DEFAULT_PASSES),
     };
     for (flag, v) in [("--width", args.width), ("--height", args.height)] {
-        if let Some(v) = v {
-            if v == 0 || v > 16384 {
-                bail!("{flag} {v} is out of range (1..=16384)");
-            }
+        if let Some(v) = v
+            && (v == 0 || v > 16384)
+        {
+            bail!("{flag} {v} is out of range (1..=16384)");
         }
     }
     check_output_path(&args.output, "exr")?;
@@ -164,7 +173,10 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         budget,
         seed: args.seed,
         first_pass: 0,
-        path_tracer: PathTracerSettings { max_depth: args.max_depth, ..Default::default() },
+        path_tracer: PathTracerSettings {
+            max_depth: args.max_depth,
+            ..Default::default()
+        },
         start,
     };
     let bar = progress_bar(&budget);
@@ -188,7 +200,10 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         output::write_png(p, &image, args.exposure)?;
     }
     if result.film.rejected > 0 {
-        eprintln!("warning: {} non-finite samples were dropped (please report this scene)", result.film.rejected);
+        eprintln!(
+            "warning: {} non-finite samples were dropped (please report this scene)",
+            result.film.rejected
+        );
     }
     eprintln!(
         "done: {} in {secs:.2} s, {} spp, {:.3} Msamples/s -> {}",
@@ -213,10 +228,14 @@ fn progress_bar(budget: &Budget) -> indicatif::ProgressBar {
     }
     let style = "{elapsed_precise} [{bar:40}] {pos}/{len} passes ({per_sec}, eta {eta})";
     match budget {
-        Budget::Passes(n) => indicatif::ProgressBar::new(*n)
-            .with_style(indicatif::ProgressStyle::with_template(style).unwrap().progress_chars("=> ")),
-        Budget::Time(_) => indicatif::ProgressBar::new_spinner()
-            .with_style(indicatif::ProgressStyle::with_template("{elapsed_precise} {spinner} {pos} passes ({per_sec})").unwrap()),
+        Budget::Passes(n) => indicatif::ProgressBar::new(*n).with_style(
+            indicatif::ProgressStyle::with_template(style)
+                .unwrap()
+                .progress_chars("=> "),
+        ),
+        Budget::Time(_) => indicatif::ProgressBar::new_spinner().with_style(
+            indicatif::ProgressStyle::with_template("{elapsed_precise} {spinner} {pos} passes ({per_sec})").unwrap(),
+        ),
     }
 }
 
@@ -250,25 +269,44 @@ fn info(path: &Path) -> Result<()> {
     let (lo, hi) = s.bounds();
     println!("bounds      {lo:?} .. {hi:?}");
     println!("triangles   {}", s.triangles.len());
-    let emissive = s.triangles.iter().filter(|t| s.materials[t.material as usize].is_emissive()).count();
-    println!("emitters    {emissive} emissive triangles, {} punctual lights", s.lights.len());
+    let emissive = s
+        .triangles
+        .iter()
+        .filter(|t| s.materials[t.material as usize].is_emissive())
+        .count();
+    println!(
+        "emitters    {emissive} emissive triangles, {} punctual lights",
+        s.lights.len()
+    );
     println!("materials");
     for m in &s.materials {
         let kind = match &m.bsdf {
             None => "medium boundary (index-matched)".to_string(),
             Some(Bsdf::Lambert { albedo }) => format!("lambert albedo {albedo:?}"),
-            Some(Bsdf::Phong { diffuse, specular, exponent }) => {
+            Some(Bsdf::Phong {
+                diffuse,
+                specular,
+                exponent,
+            }) => {
                 format!("phong diffuse {diffuse:?} specular {specular:?} exponent {exponent}")
             }
             Some(Bsdf::Mirror { reflectance }) => format!("mirror {reflectance:?}"),
             Some(Bsdf::Glass { ior, .. }) => format!("glass ior {ior}"),
         };
-        let emit = if m.is_emissive() { format!(", emits {:?}", m.emission) } else { String::new() };
+        let emit = if m.is_emissive() {
+            format!(", emits {:?}", m.emission)
+        } else {
+            String::new()
+        };
         println!("  {:<20} {kind}{emit}", m.name);
     }
     println!("media");
     for (i, m) in s.media.iter().enumerate() {
-        let region = if s.global_medium == Some(i as u32) { "global" } else { "bounded" };
+        let region = if s.global_medium == Some(i as u32) {
+            "global"
+        } else {
+            "bounded"
+        };
         let kind = match &m.density {
             None => "homogeneous".to_string(),
             Some(g) => format!("grid {}x{}x{}", g.res.x, g.res.y, g.res.z),
@@ -278,7 +316,9 @@ fn info(path: &Path) -> Result<()> {
             m.name, m.sigma_s, m.sigma_a, m.g
         );
     }
-    let cam_medium = ts.camera_medium.map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
+    let cam_medium = ts
+        .camera_medium
+        .map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
     println!("camera in   {cam_medium}");
     println!("backend     cpu (the path tracer runs on the CPU)");
     Ok(())

@@ -13,7 +13,10 @@ pub struct Metrics {
 /// Compares `a` against the reference `b`; errors when the sizes differ.
 pub fn compare(a: &Image, b: &Image) -> Result<Metrics, String> {
     if (a.width, a.height) != (b.width, b.height) {
-        return Err(format!("image sizes differ: {}x{} vs {}x{}", a.width, a.height, b.width, b.height));
+        return Err(format!(
+            "image sizes differ: {}x{} vs {}x{}",
+            a.width, a.height, b.width, b.height
+        ));
     }
     let (mut se, mut rel, mut ae, mut max) = (0f64, 0f64, 0f64, 0f64);
     for (pa, pb) in a.pixels.iter().zip(&b.pixels) {
@@ -27,5 +30,10 @@ pub fn compare(a: &Image, b: &Image) -> Result<Metrics, String> {
         }
     }
     let n = (a.pixels.len() * 3).max(1) as f64;
-    Ok(Metrics { rmse: (se / n).sqrt(), rel_mse: rel / n, mae: ae / n, max_abs: max })
+    Ok(Metrics {
+        rmse: (se / n).sqrt(),
+        rel_mse: rel / n,
+        mae: ae / n,
+        max_abs: max,
+    })
 }

@@ -11,7 +11,11 @@ pub struct Image {
 
 impl Image {
     pub fn new(width: u32, height: u32) -> Self {
-        Self { width, height, pixels: vec![Rgb::ZERO; (width * height) as usize] }
+        Self {
+            width,
+            height,
+            pixels: vec![Rgb::ZERO; (width * height) as usize],
+        }
     }
 
     pub fn get(&self, x: u32, y: u32) -> Rgb {
@@ -48,7 +52,14 @@ pub struct Film {
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
         let n = (width * height) as usize;
-        Self { width, height, sum: vec![[0.0; 3]; n], sum_sq: vec![[0.0; 3]; n], samples: 0, rejected: 0 }
+        Self {
+            width,
+            height,
+            sum: vec![[0.0; 3]; n],
+            sum_sq: vec![[0.0; 3]; n],
+            samples: 0,
+            rejected: 0,
+        }
     }
 
     /// Adds one pass: one sample per pixel. Non-finite samples are counted and dropped so that
@@ -72,8 +83,16 @@ impl Film {
     /// The current estimate: the plain average of the samples per pixel.
     pub fn image(&self) -> Image {
         let n = self.samples.max(1) as f64;
-        let pixels = self.sum.iter().map(|s| Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32)).collect();
-        Image { width: self.width, height: self.height, pixels }
+        let pixels = self
+            .sum
+            .iter()
+            .map(|s| Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32))
+            .collect();
+        Image {
+            width: self.width,
+            height: self.height,
+            pixels,
+        }
     }
 
     /// Estimated variance of each pixel's mean (sample variance / n).
@@ -94,6 +113,10 @@ impl Film {
                 Rgb::new(v(0), v(1), v(2))
             })
             .collect();
-        Image { width: self.width, height: self.height, pixels }
+        Image {
+            width: self.width,
+            height: self.height,
+            pixels,
+        }
     }
 }

@@ -15,7 +15,10 @@ pub enum OutputError {
 }
 
 fn err(path: &Path, message: impl ToString) -> OutputError {
-    OutputError::File { path: path.to_path_buf(), message: message.to_string() }
+    OutputError::File {
+        path: path.to_path_buf(),
+        message: message.to_string(),
+    }
 }
 
 /// Writes `bytes` to `path` atomically.
@@ -42,10 +45,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
 pub fn write_exr(path: &Path, image: &Image, metadata: &[(&str, String)]) -> Result<(), OutputError> {
     use exr::{meta::attribute::*, prelude::*};
     let w = image.width as usize;
-    let mut attrs = LayerAttributes::default();
-    attrs.software_name = Some(Text::from("beamlight"));
+    let mut attrs = LayerAttributes {
+        software_name: Some(Text::from("beamlight")),
+        ..Default::default()
+    };
     for (k, v) in metadata {
-        attrs.other.insert(Text::from(*k), AttributeValue::Text(Text::from(v.as_str())));
+        attrs
+            .other
+            .insert(Text::from(*k), AttributeValue::Text(Text::from(v.as_str())));
     }
     let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
         let p = image.pixels[pos.y() * w + pos.x()];
@@ -53,7 +60,10 @@ pub fn write_exr(path: &Path, image: &Image, metadata: &[(&str, String)]) -> Res
     });
     let layer = Layer::new((w, image.height as usize), attrs, Encoding::SMALL_LOSSLESS, channels);
     let mut bytes = Cursor::new(Vec::new());
-    Image::from_layer(layer).write().to_buffered(&mut bytes).map_err(|e| err(path, e))?;
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(|e| err(path, e))?;
     write_atomic(path, bytes.get_ref())
 }
 
@@ -63,7 +73,9 @@ pub fn read_exr(path: &Path) -> Result<(Image, Vec<(String, String)>), OutputErr
     let img = read_first_rgba_layer_from_file(
         path,
         |res, _| (res.width(), vec![Rgb::ZERO; res.width() * res.height()]),
-        |px: &mut (usize, Vec<Rgb>), pos, (r, g, b, _a): (f32, f32, f32, f32)| px.1[pos.y() * px.0 + pos.x()] = Rgb::new(r, g, b),
+        |px: &mut (usize, Vec<Rgb>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px.1[pos.y() * px.0 + pos.x()] = Rgb::new(r, g, b)
+        },
     )
     .map_err(|e| err(path, format!("cannot read OpenEXR: {e}")))?;
     let size = img.layer_data.size;
@@ -75,7 +87,14 @@ pub fn read_exr(path: &Path) -> Result<(Image, Vec<(String, String)>), OutputErr
     }
     meta.sort();
     let pixels = img.layer_data.channel_data.pixels.1;
-    Ok((crate::Image { width: size.width() as u32, height: size.height() as u32, pixels }, meta))
+    Ok((
+        crate::Image {
+            width: size.width() as u32,
+            height: size.height() as u32,
+            pixels,
+        },
+        meta,
+    ))
 }
 
 /// Writes an 8-bit sRGB PNG preview: radiance × 2^exposure, clamped, sRGB-encoded.
@@ -89,14 +108,19 @@ pub fn write_png(path: &Path, image: &Image, exposure: f32) -> Result<(), Output
     }
     let rgb = image::RgbImage::from_raw(image.width, image.height, buf).ok_or_else(|| err(path, "bad image size"))?;
     let mut bytes = Cursor::new(Vec::new());
-    rgb.write_to(&mut bytes, image::ImageFormat::Png).map_err(|e| err(path, e))?;
+    rgb.write_to(&mut bytes, image::ImageFormat::Png)
+        .map_err(|e| err(path, e))?;
     write_atomic(path, bytes.get_ref())
 }
 
 /// Linear → sRGB transfer function, input clamped to [0, 1] (NaN → 0).
 pub fn srgb_encode(x: f32) -> f32 {
     let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
-    if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 #[cfg(test)]
@@ -111,7 +135,12 @@ mod tests {
         for (i, p) in img.pixels.iter_mut().enumerate() {
             *p = Rgb::new(i as f32, 0.5 / (i + 1) as f32, 1e-7 * i as f32);
         }
-        write_exr(&path, &img, &[("beamlight.method", "pt".into()), ("beamlight.spp", "16".into())]).unwrap();
+        write_exr(
+            &path,
+            &img,
+            &[("beamlight.method", "pt".into()), ("beamlight.spp", "16".into())],
+        )
+        .unwrap();
         let (back, meta) = read_exr(&path).unwrap();
         assert_eq!(back, img);
         assert!(meta.contains(&("beamlight.method".into(), "pt".into())));

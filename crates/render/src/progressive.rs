@@ -64,7 +64,11 @@ pub struct RenderResult {
 }
 
 /// Renders until the budget is spent. `on_pass(done, total_if_known)` is called after each pass.
-pub fn render(ts: &TraceScene, opts: &RenderOptions, mut on_pass: impl FnMut(u64, Option<u64>)) -> Result<RenderResult, String> {
+pub fn render(
+    ts: &TraceScene,
+    opts: &RenderOptions,
+    mut on_pass: impl FnMut(u64, Option<u64>),
+) -> Result<RenderResult, String> {
     if opts.method != Method::Pt {
         return Err(format!(
             "method '{}' is not available yet: only 'pt' (the reference path tracer) is implemented in this version",
@@ -98,11 +102,23 @@ pub fn render(ts: &TraceScene, opts: &RenderOptions, mut on_pass: impl FnMut(u64
         passes += 1;
         on_pass(passes, total);
     }
-    Ok(RenderResult { film, passes, elapsed: started.elapsed() })
+    Ok(RenderResult {
+        film,
+        passes,
+        elapsed: started.elapsed(),
+    })
 }
 
 /// One sample per pixel, rows in parallel.
-pub fn path_trace_pass(ts: &TraceScene, settings: &PathTracerSettings, w: u32, h: u32, seed: u32, pass: u32, out: &mut [Rgb]) {
+pub fn path_trace_pass(
+    ts: &TraceScene,
+    settings: &PathTracerSettings,
+    w: u32,
+    h: u32,
+    seed: u32,
+    pass: u32,
+    out: &mut [Rgb],
+) {
     out.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
             let index = y as u32 * w + x as u32;

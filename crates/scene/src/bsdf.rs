@@ -4,7 +4,6 @@
 //! they reflect on whichever side `wo` lies. `eval` returns the BSDF value f (without the cosine);
 //! `pdf` is a solid-angle density; delta lobes (mirror, glass) have `eval`/`pdf` zero and are
 //! only reachable through `sample`.
-#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` deliberately also catches NaN
 use crate::frame::Frame;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::{Rgb, luminance_mean};
@@ -17,11 +16,7 @@ pub enum Bsdf {
     Lambert { albedo: Rgb },
     /// Modified Phong (Lafortune & Willems 1994): f = kd/π + ks (n+2)/(2π) cos^n α,
     /// α the angle between `wi` and the mirror direction of `wo`. Energy conserving when kd + ks ≤ 1.
-    Phong {
-        diffuse: Rgb,
-        specular: Rgb,
-        exponent: f32,
-    },
+    Phong { diffuse: Rgb, specular: Rgb, exponent: f32 },
     /// Perfect specular reflection scaled by `reflectance`.
     Mirror { reflectance: Rgb },
     /// Smooth dielectric interface with relative index `ior` (inside / outside), exact Fresnel.
@@ -121,13 +116,7 @@ impl Bsdf {
     ///
     /// Returns `None` when nothing is scattered: a black material, a grazing `wo`
     /// (`wo.z == 0`) on an opaque material, or a sampled direction on the wrong side.
-    pub fn sample_mode(
-        &self,
-        wo: Vec3,
-        u: Vec2,
-        u_lobe: f32,
-        mode: TransportMode,
-    ) -> Option<BsdfSample> {
+    pub fn sample_mode(&self, wo: Vec3, u: Vec2, u_lobe: f32, mode: TransportMode) -> Option<BsdfSample> {
         match self {
             Bsdf::Lambert { albedo } => {
                 if wo.z == 0.0 || albedo.max_element() <= 0.0 {
@@ -245,11 +234,7 @@ fn fresnel_and_cos_t(cos_i: f32, eta: f32) -> (f32, f32) {
 /// the weights are the lobe values divided by their selection probabilities.
 fn sample_glass(ior: f32, tint: Rgb, wo: Vec3, u_lobe: f32, mode: TransportMode) -> BsdfSample {
     // A non-positive or NaN index would make Snell's law meaningless: treat it as index-matched.
-    let ior = if ior > 0.0 && ior.is_finite() {
-        ior
-    } else {
-        1.0
-    };
+    let ior = if ior > 0.0 && ior.is_finite() { ior } else { 1.0 };
     // The normal points outside; a grazing wo (z = 0) counts as outside.
     let outside = wo.z >= 0.0;
     // η = index on wi's (transmitted) side / index on wo's side.
@@ -264,11 +249,7 @@ fn sample_glass(ior: f32, tint: Rgb, wo: Vec3, u_lobe: f32, mode: TransportMode)
         };
     }
     // Refraction: the tangential part shrinks by 1/η (Snell), the normal part flips side.
-    let wi = Vec3::new(
-        -wo.x / eta,
-        -wo.y / eta,
-        if outside { -cos_t } else { cos_t },
-    );
+    let wi = Vec3::new(-wo.x / eta, -wo.y / eta, if outside { -cos_t } else { cos_t });
     let weight = match mode {
         TransportMode::Radiance => tint / (eta * eta),
         TransportMode::Importance => tint,
@@ -297,11 +278,7 @@ fn upper(w: Vec3) -> Vec3 {
 /// `w` (sampled in the upper hemisphere) moved to the side of `wo`.
 #[inline]
 fn to_side_of(w: Vec3, wo: Vec3) -> Vec3 {
-    if wo.z < 0.0 {
-        Vec3::new(w.x, w.y, -w.z)
-    } else {
-        w
-    }
+    if wo.z < 0.0 { Vec3::new(w.x, w.y, -w.z) } else { w }
 }
 
 /// Mirror reflection about the normal (+z).
@@ -441,10 +418,7 @@ mod tests {
                 for &wi in &awkward_dirs() {
                     let f = m.eval(wo, wi);
                     let p = m.pdf(wo, wi);
-                    assert!(
-                        f.is_finite() && f.min_element() >= 0.0,
-                        "{m:?} {wo} {wi}: f = {f}"
-                    );
+                    assert!(f.is_finite() && f.min_element() >= 0.0, "{m:?} {wo} {wi}: f = {f}");
                     assert!(p.is_finite() && p >= 0.0, "{m:?} {wo} {wi}: pdf = {p}");
                 }
                 for &a in &us {
@@ -497,12 +471,7 @@ mod tests {
 
     #[test]
     fn lambert_and_phong_are_reciprocal() {
-        let dirs = [
-            dir(0.3, 0.2, 0.8),
-            dir(-0.7, 0.1, 0.3),
-            dir(0.0, 0.9, 0.05),
-            Vec3::Z,
-        ];
+        let dirs = [dir(0.3, 0.2, 0.8), dir(-0.7, 0.1, 0.3), dir(0.0, 0.9, 0.05), Vec3::Z];
         for m in [
             Bsdf::Lambert {
                 albedo: Rgb::new(0.1, 0.5, 0.9),
@@ -548,10 +517,7 @@ mod tests {
             let alpha = (s.wi - mirror(wo)).length();
             // Chord length |wi − r| = √(2(1 − cos α)) with cos α = ξ^(1/(n+1)), ξ = 1/2.
             let width = (2.0 * (1.0 - 0.5f64.powf(1.0 / (n as f64 + 1.0)))).sqrt() as f32;
-            assert!(
-                (alpha / width - 1.0).abs() < 1e-2,
-                "n={n}: α = {alpha}, want {width}"
-            );
+            assert!((alpha / width - 1.0).abs() < 1e-2, "n={n}: α = {alpha}, want {width}");
             assert!((s.pdf / m.pdf(wo, s.wi) - 1.0).abs() < 1e-6);
         }
     }
@@ -560,10 +526,7 @@ mod tests {
     fn fresnel_at_normal_incidence_and_beyond_the_critical_angle() {
         for eta in [1.0f32, 1.33, 1.5, 2.4, 1.0 / 1.5] {
             let want = ((eta - 1.0) / (eta + 1.0)).powi(2);
-            assert!(
-                (fresnel_dielectric(1.0, eta) - want).abs() < 1e-6,
-                "η = {eta}"
-            );
+            assert!((fresnel_dielectric(1.0, eta) - want).abs() < 1e-6, "η = {eta}");
         }
         // Inside glass (η = 1/1.5) the critical angle is asin(1/1.5) ≈ 41.8°.
         let eta = 1.0 / 1.5;
@@ -619,16 +582,10 @@ mod tests {
     #[test]
     fn glass_handles_exactly_grazing_and_normal_directions() {
         for ior in [1.5, 1.0, 0.7] {
-            let glass = Bsdf::Glass {
-                ior,
-                tint: Rgb::ONE,
-            };
+            let glass = Bsdf::Glass { ior, tint: Rgb::ONE };
             for wo in [Vec3::X, dir(1.0, 1.0, 0.0)] {
                 let s = glass.sample(wo, Vec2::ZERO, 0.5).unwrap();
-                assert!(
-                    s.wi.is_finite() && s.weight.is_finite() && s.pdf == 1.0,
-                    "{s:?}"
-                );
+                assert!(s.wi.is_finite() && s.weight.is_finite() && s.pdf == 1.0, "{s:?}");
             }
             // Normal incidence: refraction goes straight through.
             let s = glass.sample(Vec3::Z, Vec2::ZERO, 0.999).unwrap();

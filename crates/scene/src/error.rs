@@ -16,6 +16,9 @@ pub enum SceneError {
 
 impl SceneError {
     pub fn invalid(path: impl Into<PathBuf>, what: impl Into<String>) -> Self {
-        SceneError::Invalid { path: path.into(), what: what.into() }
+        SceneError::Invalid {
+            path: path.into(),
+            what: what.into(),
+        }
     }
 }

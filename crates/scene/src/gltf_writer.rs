@@ -228,17 +228,10 @@ impl GltfBuilder {
         material: Option<u32>,
     ) -> u32 {
         if let Some(n) = normals {
-            assert_eq!(
-                n.len(),
-                positions.len(),
-                "mesh '{name}': one normal per position"
-            );
+            assert_eq!(n.len(), positions.len(), "mesh '{name}': one normal per position");
         }
         if let Some(m) = material {
-            assert!(
-                (m as usize) < self.materials.len(),
-                "mesh '{name}': no material {m}"
-            );
+            assert!((m as usize) < self.materials.len(), "mesh '{name}': no material {m}");
         }
         self.meshes.push(MeshData {
             name: name.to_string(),
@@ -301,35 +294,17 @@ impl GltfBuilder {
             aspect,
         });
         let camera = (self.cameras.len() - 1) as u32;
-        let node = self.node(
-            NodeDesc::new(name)
-                .with_translation(eye)
-                .with_rotation(rotation),
-        );
+        let node = self.node(NodeDesc::new(name).with_translation(eye).with_rotation(rotation));
         self.nodes[node as usize].camera = Some(camera);
         node
     }
 
     /// Adds a point light (radiant intensity `color × intensity`); returns the node index.
-    pub fn point_light(
-        &mut self,
-        name: &str,
-        position: Vec3,
-        color: [f32; 3],
-        intensity: f32,
-    ) -> u32 {
-        self.light_node(
-            name,
-            position,
-            Quat::IDENTITY,
-            LightKind::Point,
-            color,
-            intensity,
-        )
+    pub fn point_light(&mut self, name: &str, position: Vec3, color: [f32; 3], intensity: f32) -> u32 {
+        self.light_node(name, position, Quat::IDENTITY, LightKind::Point, color, intensity)
     }
 
     /// Adds a spot light pointing along `direction`, cone angles in radians; returns the node index.
-    #[allow(clippy::too_many_arguments)]
     pub fn spot_light(
         &mut self,
         name: &str,
@@ -349,22 +324,9 @@ impl GltfBuilder {
     }
 
     /// Adds a directional light travelling along `direction` (irradiance `color × illuminance`).
-    pub fn directional_light(
-        &mut self,
-        name: &str,
-        direction: Vec3,
-        color: [f32; 3],
-        illuminance: f32,
-    ) -> u32 {
+    pub fn directional_light(&mut self, name: &str, direction: Vec3, color: [f32; 3], illuminance: f32) -> u32 {
         let rotation = Quat::from_rotation_arc(Vec3::NEG_Z, direction.normalize());
-        self.light_node(
-            name,
-            Vec3::ZERO,
-            rotation,
-            LightKind::Directional,
-            color,
-            illuminance,
-        )
+        self.light_node(name, Vec3::ZERO, rotation, LightKind::Directional, color, illuminance)
     }
 
     fn light_node(
@@ -383,11 +345,7 @@ impl GltfBuilder {
             intensity,
         });
         let light = (self.lights.len() - 1) as u32;
-        let node = self.node(
-            NodeDesc::new(name)
-                .with_translation(position)
-                .with_rotation(rotation),
-        );
+        let node = self.node(NodeDesc::new(name).with_translation(position).with_rotation(rotation));
         self.nodes[node as usize].light = Some(light);
         node
     }
@@ -538,10 +496,7 @@ impl GltfBuilder {
                             .collect();
                         (v, 5123)
                     }
-                    _ => (
-                        m.indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
-                        5125,
-                    ),
+                    _ => (m.indices.iter().flat_map(|i| i.to_le_bytes()).collect(), 5125),
                 };
                 let view = push_view(&mut bin, &bytes, ELEMENT_ARRAY_BUFFER);
                 accessors.push(json!({
@@ -653,21 +608,14 @@ impl GltfBuilder {
             let mut o = Map::new();
             o.insert("name".into(), json!(d.name));
             if let Some(m) = d.mesh {
-                assert!(
-                    (m as usize) < self.meshes.len(),
-                    "node '{}': no mesh {m}",
-                    d.name
-                );
+                assert!((m as usize) < self.meshes.len(), "node '{}': no mesh {m}", d.name);
                 o.insert("mesh".into(), json!(m));
             }
             if let Some(c) = n.camera {
                 o.insert("camera".into(), json!(c));
             }
             if let Some(l) = n.light {
-                o.insert(
-                    "extensions".into(),
-                    json!({ "KHR_lights_punctual": { "light": l } }),
-                );
+                o.insert("extensions".into(), json!({ "KHR_lights_punctual": { "light": l } }));
             }
             if d.translation != Vec3::ZERO {
                 o.insert("translation".into(), vec3_json(d.translation));
@@ -680,11 +628,7 @@ impl GltfBuilder {
             }
             if !d.children.is_empty() {
                 for &c in &d.children {
-                    assert!(
-                        (c as usize) < self.nodes.len(),
-                        "node '{}': no child node {c}",
-                        d.name
-                    );
+                    assert!((c as usize) < self.nodes.len(), "node '{}': no child node {c}", d.name);
                     is_child[c as usize] = true;
                 }
                 o.insert("children".into(), json!(d.children));
@@ -701,10 +645,7 @@ impl GltfBuilder {
             json!({ "version": "2.0", "generator": "beamlight-scene gltf_writer" }),
         );
         root.insert("scene".into(), json!(0));
-        root.insert(
-            "scenes".into(),
-            json!([{ "name": "Scene", "nodes": roots }]),
-        );
+        root.insert("scenes".into(), json!([{ "name": "Scene", "nodes": roots }]));
         root.insert("nodes".into(), Value::Array(nodes));
         if !meshes.is_empty() {
             root.insert("meshes".into(), Value::Array(meshes));
@@ -750,12 +691,7 @@ pub mod shapes {
 
     /// The parallelogram `corner`, `corner+u`, `corner+u+v`, `corner+v`; its normal is `u × v`.
     pub fn quad(corner: Vec3, edge_u: Vec3, edge_v: Vec3) -> (Vec<Vec3>, Vec<u32>) {
-        let p = vec![
-            corner,
-            corner + edge_u,
-            corner + edge_u + edge_v,
-            corner + edge_v,
-        ];
+        let p = vec![corner, corner + edge_u, corner + edge_u + edge_v, corner + edge_v];
         (p, vec![0, 1, 2, 0, 2, 3])
     }
 
@@ -792,12 +728,7 @@ pub mod shapes {
 
     /// A closed UV sphere with outward normals: poles on ±Y, `rings ≥ 2` latitude bands and
     /// `segments ≥ 3` longitude slices. Vertex normals are `(p − center) / radius`.
-    pub fn uv_sphere(
-        center: Vec3,
-        radius: f32,
-        rings: u32,
-        segments: u32,
-    ) -> (Vec<Vec3>, Vec<u32>) {
+    pub fn uv_sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> (Vec<Vec3>, Vec<u32>) {
         assert!(
             rings >= 2 && segments >= 3,
             "uv_sphere needs rings >= 2 and segments >= 3"
@@ -821,12 +752,7 @@ pub mod shapes {
         }
         for r in 1..rings - 1 {
             for s in 0..segments {
-                let (a, b, c, d) = (
-                    ring(r, s),
-                    ring(r + 1, s),
-                    ring(r + 1, s + 1),
-                    ring(r, s + 1),
-                );
+                let (a, b, c, d) = (ring(r, s), ring(r + 1, s), ring(r + 1, s + 1), ring(r, s + 1));
                 idx.extend_from_slice(&[a, b, c, a, c, d]);
             }
         }

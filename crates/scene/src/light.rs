@@ -45,9 +45,13 @@ impl PunctualLight {
     pub fn intensity_towards(&self, w: Vec3) -> Rgb {
         match self {
             PunctualLight::Point { intensity, .. } => *intensity,
-            PunctualLight::Spot { direction, intensity, cos_inner, cos_outer, .. } => {
-                *intensity * spot_falloff(direction.dot(w), *cos_inner, *cos_outer)
-            }
+            PunctualLight::Spot {
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+                ..
+            } => *intensity * spot_falloff(direction.dot(w), *cos_inner, *cos_outer),
             PunctualLight::Directional { irradiance, .. } => *irradiance,
         }
     }
@@ -58,7 +62,12 @@ impl PunctualLight {
         let mean = |c: Rgb| (c.x + c.y + c.z) / 3.0;
         match self {
             PunctualLight::Point { intensity, .. } => 4.0 * std::f32::consts::PI * mean(*intensity),
-            PunctualLight::Spot { intensity, cos_inner, cos_outer, .. } => {
+            PunctualLight::Spot {
+                intensity,
+                cos_inner,
+                cos_outer,
+                ..
+            } => {
                 // Solid angle of the cone out to the middle of the falloff ramp.
                 2.0 * std::f32::consts::PI * (1.0 - 0.5 * (cos_inner + cos_outer)) * mean(*intensity)
             }

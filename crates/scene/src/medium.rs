@@ -81,7 +81,14 @@ impl DensityGrid {
                 }
             }
         }
-        Self { res, lo, hi, values, majorant_res, majorants }
+        Self {
+            res,
+            lo,
+            hi,
+            values,
+            majorant_res,
+            majorants,
+        }
     }
 
     /// A grid of constant density (useful for tests: it must match the homogeneous medium).
@@ -145,16 +152,32 @@ pub fn parse_grid(bytes: &[u8]) -> Result<(UVec3, Vec<f32>), String> {
     let word = |i: usize| u32::from_le_bytes(bytes[8 + 4 * i..12 + 4 * i].try_into().unwrap());
     let res = UVec3::new(word(0), word(1), word(2));
     if res.min_element() == 0 || res.max_element() > 4096 {
-        return Err(format!("grid resolution {}x{}x{} must be between 1 and 4096 per axis", res.x, res.y, res.z));
+        return Err(format!(
+            "grid resolution {}x{}x{} must be between 1 and 4096 per axis",
+            res.x, res.y, res.z
+        ));
     }
     let n = res.x as usize * res.y as usize * res.z as usize;
     let body = &bytes[20..];
     if body.len() != 4 * n {
-        return Err(format!("grid {}x{}x{} needs {} bytes of values, file has {}", res.x, res.y, res.z, 4 * n, body.len()));
+        return Err(format!(
+            "grid {}x{}x{} needs {} bytes of values, file has {}",
+            res.x,
+            res.y,
+            res.z,
+            4 * n,
+            body.len()
+        ));
     }
-    let values: Vec<f32> = body.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let values: Vec<f32> = body
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
     if let Some(i) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
-        return Err(format!("grid value #{i} is {}; densities must be finite and non-negative", values[i]));
+        return Err(format!(
+            "grid value #{i} is {}; densities must be finite and non-negative",
+            values[i]
+        ));
     }
     Ok((res, values))
 }
@@ -198,7 +221,11 @@ mod tests {
         // Majorants bound the density on a dense set of points.
         let cs = g.majorant_cell_size();
         for i in 0..4000 {
-            let t = Vec3::new((i % 17) as f32 / 16.0, (i / 17 % 13) as f32 / 12.0, (i / 221) as f32 / 18.0);
+            let t = Vec3::new(
+                (i % 17) as f32 / 16.0,
+                (i / 17 % 13) as f32 / 12.0,
+                (i / 221) as f32 / 18.0,
+            );
             let p = lo + t.min(Vec3::splat(0.99999)) * (hi - lo);
             let c = ((p - lo) / cs).floor().as_uvec3().min(g.majorant_res - UVec3::ONE);
             assert!(g.density(p) <= g.majorant(c) + 1e-5);
@@ -211,7 +238,11 @@ mod tests {
         let vals = vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0];
         let bytes = write_grid(res, &vals);
         assert_eq!(parse_grid(&bytes).unwrap(), (res, vals));
-        assert!(parse_grid(&bytes[..bytes.len() - 1]).unwrap_err().contains("needs 24 bytes"));
+        assert!(
+            parse_grid(&bytes[..bytes.len() - 1])
+                .unwrap_err()
+                .contains("needs 24 bytes")
+        );
         assert!(parse_grid(b"hello").is_err());
         let mut bad = write_grid(res, &[0.0, 1.0, f32::NAN, 3.0, 4.0, 5.0]);
         assert!(parse_grid(&bad).unwrap_err().contains("#2"));

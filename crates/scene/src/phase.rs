@@ -139,15 +139,8 @@ mod tests {
             for &ux in &us {
                 for uy in [0.0, 0.3, 0.99] {
                     let s = hg.sample(wo(), Vec2::new(ux, uy));
-                    assert!(
-                        s.wi.is_finite() && (s.wi.length() - 1.0).abs() < 1e-5,
-                        "g={g} u={ux}"
-                    );
-                    assert!(
-                        s.pdf.is_finite() && s.pdf > 0.0,
-                        "g={g} u={ux}: pdf {}",
-                        s.pdf
-                    );
+                    assert!(s.wi.is_finite() && (s.wi.length() - 1.0).abs() < 1e-5, "g={g} u={ux}");
+                    assert!(s.pdf.is_finite() && s.pdf > 0.0, "g={g} u={ux}: pdf {}", s.pdf);
                     assert_eq!(s.weight, 1.0);
                     assert_eq!(s.pdf, hg.pdf(wo(), s.wi));
                 }
@@ -164,15 +157,9 @@ mod tests {
     fn cos_theta_inversion_hits_both_ends() {
         for g in GS {
             let (m, p) = hg_sample_cos_theta(g, 0.0);
-            assert!(
-                (m - 2.0).abs() < 1e-6 && p == 0.0,
-                "g={g} u=0 -> ({m}, {p})"
-            );
+            assert!((m - 2.0).abs() < 1e-6 && p == 0.0, "g={g} u=0 -> ({m}, {p})");
             let (m, p) = hg_sample_cos_theta(g, 1.0);
-            assert!(
-                m == 0.0 && (p - 2.0).abs() < 1e-6,
-                "g={g} u=1 -> ({m}, {p})"
-            );
+            assert!(m == 0.0 && (p - 2.0).abs() < 1e-6, "g={g} u=1 -> ({m}, {p})");
             for u in [0.1, 0.5, 0.9] {
                 let (m, p) = hg_sample_cos_theta(g, u);
                 assert!((m + p - 2.0).abs() < 1e-5, "g={g} u={u}: {m} + {p}");
@@ -206,21 +193,12 @@ mod tests {
     fn eval_matches_the_textbook_formula_and_scatters_forward_for_positive_g() {
         for g in [-0.9f32, -0.3, 0.0, 0.5, 0.95] {
             let hg = HenyeyGreenstein { g };
-            for wi in [
-                Vec3::Z,
-                -Vec3::Z,
-                Vec3::X,
-                Vec3::new(0.2, 0.3, -0.9).normalize(),
-            ] {
+            for wi in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.2, 0.3, -0.9).normalize()] {
                 let cos = -wo().dot(wi) as f64;
                 let g = g as f64;
-                let want = (1.0 - g * g)
-                    / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5));
+                let want = (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5));
                 let got = hg.eval(wo(), wi) as f64;
-                assert!(
-                    (got / want - 1.0).abs() < 1e-4,
-                    "g={g} wi={wi}: {got} vs {want}"
-                );
+                assert!((got / want - 1.0).abs() < 1e-4, "g={g} wi={wi}: {got} vs {want}");
             }
         }
         let hg = HenyeyGreenstein { g: 0.8 };

@@ -40,7 +40,12 @@ pub struct Sampler {
 
 impl Sampler {
     pub fn new(seed: u32, pass: u32, index: u32) -> Self {
-        Self { seed, pass, index, dim: 0 }
+        Self {
+            seed,
+            pass,
+            index,
+            dim: 0,
+        }
     }
 
     /// Next uniform number in [0, 1).

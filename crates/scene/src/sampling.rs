@@ -4,7 +4,6 @@
 //! directions). The warps are written so that no input in [0, 1]² produces NaN or a non-unit
 //! vector: square roots get arguments clamped at zero and `1 − cos²` is formed as a product of
 //! two factors whenever one of them is known exactly.
-#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` deliberately also catches NaN
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, TAU};
 
@@ -153,10 +152,7 @@ impl Distribution1D {
         let mut cdf: Vec<f32> = cdf.iter().map(|&c| (c / sum) as f32).collect();
         // Exactly 1 at the end regardless of rounding, so any u < 1 lands on an item.
         *cdf.last_mut().unwrap() = 1.0;
-        Self {
-            cdf,
-            total: sum as f32,
-        }
+        Self { cdf, total: sum as f32 }
     }
 
     /// Returns (index, probability of that index). Never returns an index with zero weight
@@ -166,11 +162,7 @@ impl Distribution1D {
             return (0, 0.0);
         }
         // NaN → 0, and 1 would select past the last item.
-        let u = if u >= 0.0 {
-            u.min(ONE_MINUS_EPSILON)
-        } else {
-            0.0
-        };
+        let u = if u >= 0.0 { u.min(ONE_MINUS_EPSILON) } else { 0.0 };
         // The largest i with cdf[i] ≤ u; then cdf[i] ≤ u < cdf[i + 1], so item i has a
         // non-empty interval, i.e. a positive weight.
         let i = self.cdf.partition_point(|&c| c <= u) - 1;
@@ -236,10 +228,7 @@ mod tests {
         let w = uniform_cone(Vec2::new(1.0, 0.0), cos_max);
         let theta = w.truncate().length().atan2(w.z);
         let theta_max = (2.0f64 * (1.0 - cos_max as f64)).sqrt() as f32;
-        assert!(
-            (theta / theta_max - 1.0).abs() < 1e-3,
-            "{theta} vs {theta_max}"
-        );
+        assert!((theta / theta_max - 1.0).abs() < 1e-3, "{theta} vs {theta_max}");
         assert!(uniform_cone_pdf(cos_max).is_finite());
         assert_eq!(uniform_cone_pdf(1.0), f32::INFINITY);
     }
@@ -248,10 +237,7 @@ mod tests {
     fn triangle_barycentrics_stay_inside() {
         for u in corner_inputs() {
             let b = uniform_triangle(u);
-            assert!(
-                b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6,
-                "{u} -> {b}"
-            );
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6, "{u} -> {b}");
         }
     }
 

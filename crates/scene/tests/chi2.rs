@@ -196,12 +196,8 @@ fn chi2_distribution_1d() {
         );
         observed[k] += 1.0;
     }
-    let expected: Vec<f64> = weights
-        .iter()
-        .map(|&w| w as f64 / total * N as f64)
-        .collect();
-    let r =
-        chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("Distribution1D: {e}"));
+    let expected: Vec<f64> = weights.iter().map(|&w| w as f64 / total * N as f64).collect();
+    let r = chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("Distribution1D: {e}"));
     eprintln!("Distribution1D: {r:?}");
 }
 
@@ -291,12 +287,7 @@ fn chi2_henyey_greenstein_extreme_g_in_double_precision() {
         for i in 0..N {
             let u = Sampler::new(40 + k as u32, 0, i as u32).next_1d();
             let (one_minus, one_plus) = hg_sample_cos_theta(g, u);
-            assert!(
-                one_minus.is_finite()
-                    && one_plus.is_finite()
-                    && one_minus >= 0.0
-                    && one_plus >= 0.0
-            );
+            assert!(one_minus.is_finite() && one_plus.is_finite() && one_minus >= 0.0 && one_plus >= 0.0);
             let x = if g > 0.0 { one_minus } else { one_plus } as f64;
             let b = if x < x_min {
                 0
@@ -307,8 +298,7 @@ fn chi2_henyey_greenstein_extreme_g_in_double_precision() {
         }
         let mut expected = vec![cdf(x_min) * N as f64];
         expected.extend((1..=BINS).map(|b| (cdf(edge(b)) - cdf(edge(b - 1))) * N as f64));
-        let r =
-            chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("HG g = {g}: {e}"));
+        let r = chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("HG g = {g}: {e}"));
         eprintln!("HG cos θ, g = {g}: {r:?}");
     }
 }
@@ -317,28 +307,14 @@ fn chi2_henyey_greenstein_extreme_g_in_double_precision() {
 fn henyey_greenstein_integrates_to_one() {
     // θ-concentrated fixed quadrature (rows ∝ t⁴ around the peak, 512 × 8 nodes in t) resolves
     // lobes down to a width of 1e-5; adaptive quadrature would chase the f32 rounding noise.
-    let gs = [
-        -0.99999f32,
-        -0.999,
-        -0.9,
-        -0.3,
-        0.0,
-        1e-7,
-        0.5,
-        0.95,
-        0.999,
-        0.99999,
-    ];
+    let gs = [-0.99999f32, -0.999, -0.9, -0.3, 0.0, 1e-7, 0.5, 0.95, 0.999, 0.99999];
     for g in gs {
         let hg = HenyeyGreenstein { g };
         let wo = hg_wo();
         let axis = if g >= 0.0 { -wo } else { wo };
         let grid = grid_around(axis, 4.0);
         let integral = grid.integrate_sphere(&|wi| hg.eval(wo, wi) as f64, 512, 4);
-        assert!(
-            (integral - 1.0).abs() < 1e-4,
-            "g = {g}: ∫ p dω = {integral}"
-        );
+        assert!((integral - 1.0).abs() < 1e-4, "g = {g}: ∫ p dω = {integral}");
     }
 }
 
@@ -355,11 +331,7 @@ fn bsdf_sampler(m: &Bsdf, wo: Vec3) -> impl FnMut(&mut Sampler) -> Option<Vec3> 
         assert!(!s.is_delta);
         assert!(s.wi.z * wo.z > 0.0, "{m:?}: sample on the wrong side");
         let pdf = m.pdf(wo, s.wi);
-        assert!(
-            close(s.pdf, pdf, 1e-3),
-            "{m:?}: sampled pdf {} vs pdf() {pdf}",
-            s.pdf
-        );
+        assert!(close(s.pdf, pdf, 1e-3), "{m:?}: sampled pdf {} vs pdf() {pdf}", s.pdf);
         let want = m.eval(wo, s.wi) * s.wi.z.abs() / s.pdf;
         for c in 0..3 {
             assert!(
@@ -374,18 +346,10 @@ fn bsdf_sampler(m: &Bsdf, wo: Vec3) -> impl FnMut(&mut Sampler) -> Option<Vec3> 
 
 fn chi2_bsdf(name: &str, m: &Bsdf, wo: Vec3, grid: SphereGrid, seed: u32) {
     // The horizon, and the edge cos α = 0 of the Phong lobe (a kink, or a jump for n = 0).
-    let grid = &grid
-        .with_jump(DVec3::Z, 0.0)
-        .with_jump(mirror_dir(wo).as_dvec3(), 0.0);
-    chi2_sphere(
-        name,
-        grid,
-        N,
-        seed,
-        alpha(),
-        &mut bsdf_sampler(m, wo),
-        &|wi| m.pdf(wo, wi) as f64,
-    );
+    let grid = &grid.with_jump(DVec3::Z, 0.0).with_jump(mirror_dir(wo).as_dvec3(), 0.0);
+    chi2_sphere(name, grid, N, seed, alpha(), &mut bsdf_sampler(m, wo), &|wi| {
+        m.pdf(wo, wi) as f64
+    });
 }
 
 #[test]
@@ -412,11 +376,7 @@ fn mirror_dir(w: Vec3) -> Vec3 {
 #[test]
 fn chi2_phong_low_exponents() {
     // World grid: the horizon is a row boundary, the lobe is off-axis.
-    let cases = [
-        (1.0, 30.0, 0.3, 0.5),
-        (20.0, 45.0, 0.2, 0.6),
-        (20.0, 100.0, 0.5, 0.5),
-    ];
+    let cases = [(1.0, 30.0, 0.3, 0.5), (20.0, 45.0, 0.2, 0.6), (20.0, 100.0, 0.5, 0.5)];
     for (k, (n, theta, kd, ks)) in cases.into_iter().enumerate() {
         let m = phong(kd, ks, n);
         chi2_bsdf(
@@ -434,13 +394,7 @@ fn chi2_phong_lobe_grid(n: f32, theta: f32, kd: f32, ks: f32, p: f64, seed: u32)
     let m = phong(kd, ks, n);
     let wo = at_angle(theta);
     let grid = grid_around(mirror_dir(wo), p);
-    chi2_bsdf(
-        &format!("Phong n = {n}, θo = {theta}° (lobe grid)"),
-        &m,
-        wo,
-        grid,
-        seed,
-    );
+    chi2_bsdf(&format!("Phong n = {n}, θo = {theta}° (lobe grid)"), &m, wo, grid, seed);
 }
 
 #[test]
@@ -458,13 +412,7 @@ fn chi2_phong_grazing_and_below() {
     chi2_phong_lobe_grid(100.0, 85.0, 0.0, 1.0, 2.0, 74);
     // The same clipping seen on the world grid, where the horizon is a row boundary.
     let m = phong(0.1, 0.8, 80.0);
-    chi2_bsdf(
-        "Phong n = 80, θo = 70° (world grid)",
-        &m,
-        at_angle(70.0),
-        z_grid(),
-        80,
-    );
+    chi2_bsdf("Phong n = 80, θo = 70° (world grid)", &m, at_angle(70.0), z_grid(), 80);
 }
 
 #[test]
@@ -545,10 +493,7 @@ fn fresnel_reference(theta_i: f64, eta: f64) -> f64 {
 #[test]
 fn glass_directions_obey_reflection_and_snell() {
     for ior in [1.5f32, 1.33, 2.4, 0.7] {
-        let glass = Bsdf::Glass {
-            ior,
-            tint: Rgb::ONE,
-        };
+        let glass = Bsdf::Glass { ior, tint: Rgb::ONE };
         for theta in [
             0.0f32, 10.0, 30.0, 41.0, 45.0, 60.0, 80.0, 89.9, 100.0, 135.0, 170.0, 180.0,
         ] {
@@ -576,10 +521,7 @@ fn glass_directions_obey_reflection_and_snell() {
                     let (wo_t, wi_t) = (wo.truncate().as_dvec2(), s.wi.truncate().as_dvec2());
                     assert!(wo_t.perp_dot(wi_t).abs() < 1e-6 && wo_t.dot(wi_t) <= 0.0);
                     let (sin_o, sin_i) = (wo_t.length(), wi_t.length());
-                    assert!(
-                        (sin_o - eta * sin_i).abs() < 1e-5,
-                        "Snell: {sin_o} vs {eta}·{sin_i}"
-                    );
+                    assert!((sin_o - eta * sin_i).abs() < 1e-5, "Snell: {sin_o} vs {eta}·{sin_i}");
                     assert!((s.weight.x as f64 - 1.0 / (eta * eta)).abs() < 1e-5);
                 }
             }
@@ -599,10 +541,7 @@ fn glass_reflects_with_the_fresnel_probability() {
         (0.7, 30.0),
     ];
     for (k, (ior, theta)) in configs.into_iter().enumerate() {
-        let glass = Bsdf::Glass {
-            ior,
-            tint: Rgb::ONE,
-        };
+        let glass = Bsdf::Glass { ior, tint: Rgb::ONE };
         let wo = at_angle(theta);
         let eta = if wo.z >= 0.0 { ior } else { 1.0 / ior } as f64;
         let f = fresnel_reference((wo.z.abs() as f64).acos(), eta);
@@ -615,9 +554,7 @@ fn glass_reflects_with_the_fresnel_probability() {
             if s.wi.z * wo.z > 0.0 {
                 reflected += 1.0;
             }
-            let s = glass
-                .sample_mode(wo, u, u_lobe, TransportMode::Importance)
-                .unwrap();
+            let s = glass.sample_mode(wo, u, u_lobe, TransportMode::Importance).unwrap();
             mean_weight_importance += s.weight.x as f64 / N as f64;
         }
         let n = N as f64;
@@ -641,10 +578,7 @@ fn mirror_reflects_exactly() {
         let wo = at_angle(theta);
         let s = m.sample(wo, Vec2::new(0.2, 0.9), 0.4).unwrap();
         assert_eq!(s.wi, mirror_dir(wo));
-        assert_eq!(
-            (s.weight, s.pdf, s.is_delta),
-            (Rgb::new(0.9, 0.8, 0.7), 1.0, true)
-        );
+        assert_eq!((s.weight, s.pdf, s.is_delta), (Rgb::new(0.9, 0.8, 0.7), 1.0, true));
         // Angle of incidence equals angle of reflection, in the plane of incidence.
         let n = DVec3::Z;
         let (a, b) = (wo.as_dvec3(), s.wi.as_dvec3());

@@ -43,8 +43,7 @@ fn load_err(path: &Path) -> String {
 fn feature_scene() -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let white = b.material(MaterialDesc::lambert("White", [0.8, 0.7, 0.6]));
-    let light =
-        b.material(MaterialDesc::emitter("Lamp", [20.0, 10.0, 5.0]).with_double_sided(true));
+    let light = b.material(MaterialDesc::emitter("Lamp", [20.0, 10.0, 5.0]).with_double_sided(true));
     let glass = b.material(MaterialDesc::glass("Glass", 1.33));
     let (p, i) = shapes::quad(
         Vec3::new(-2.0, 0.0, 2.0),
@@ -59,10 +58,7 @@ fn feature_scene() -> GltfBuilder {
     );
     b.mesh("Lamp", &p, &i, None, Some(light));
     let (p, i) = shapes::uv_sphere(Vec3::new(0.0, 1.0, 0.0), 0.5, 8, 12);
-    let n: Vec<Vec3> = p
-        .iter()
-        .map(|q| (*q - Vec3::new(0.0, 1.0, 0.0)).normalize())
-        .collect();
+    let n: Vec<Vec3> = p.iter().map(|q| (*q - Vec3::new(0.0, 1.0, 0.0)).normalize()).collect();
     b.mesh("Ball", &p, &i, Some(&n), Some(glass));
     let (p, i) = shapes::cuboid(Vec3::splat(-0.25), Vec3::splat(0.25), true);
     b.mesh("Cube", &p, &i, None, None);
@@ -90,12 +86,7 @@ fn feature_scene() -> GltfBuilder {
 fn check_feature_scene(s: &Scene) {
     // Triangles: floor 2 + lamp 2 + ball 2*12 + 6*12*2... + cube 12.
     let ball = 12 * 2 + (8 - 2) * 12 * 2;
-    assert_eq!(
-        s.triangles.len(),
-        2 + 2 + ball + 12,
-        "warnings: {:?}",
-        s.warnings
-    );
+    assert_eq!(s.triangles.len(), 2 + 2 + ball + 12, "warnings: {:?}", s.warnings);
     assert_eq!(s.meshes, vec!["Floor", "Lamp", "Ball", "Cube"]);
     let mat = |name: &str| {
         s.materials
@@ -109,11 +100,7 @@ fn check_feature_scene(s: &Scene) {
             albedo: Vec3::new(0.8, 0.7, 0.6)
         })
     );
-    assert!(approx(
-        mat("Lamp").emission,
-        Vec3::new(20.0, 10.0, 5.0),
-        1e-4
-    ));
+    assert!(approx(mat("Lamp").emission, Vec3::new(20.0, 10.0, 5.0), 1e-4));
     assert!(mat("Lamp").double_sided && !mat("White").double_sided);
     assert_eq!(
         mat("Glass").bsdf,
@@ -148,11 +135,7 @@ fn check_feature_scene(s: &Scene) {
                 assert!(t.cross().dot(c) > 0.0, "sphere faces outward");
                 for (nk, pk) in n.iter().zip(t.p) {
                     assert!((nk.length() - 1.0).abs() < 1e-5);
-                    assert!(approx(
-                        *nk,
-                        (pk - Vec3::new(0.0, 1.0, 0.0)).normalize(),
-                        1e-5
-                    ));
+                    assert!(approx(*nk, (pk - Vec3::new(0.0, 1.0, 0.0)).normalize(), 1e-5));
                 }
             }
             _ => {}
@@ -178,10 +161,7 @@ fn check_feature_scene(s: &Scene) {
     // Lights.
     assert_eq!(s.lights.len(), 2);
     match &s.lights[0] {
-        PunctualLight::Point {
-            position,
-            intensity,
-        } => {
+        PunctualLight::Point { position, intensity } => {
             assert!(approx(*position, Vec3::new(1.0, 2.0, 3.0), 1e-6));
             assert!(approx(*intensity, Vec3::new(40.0, 20.0, 10.0), 1e-4));
         }
@@ -198,9 +178,7 @@ fn check_feature_scene(s: &Scene) {
             assert!(approx(*position, Vec3::new(0.0, 4.0, 0.0), 1e-6));
             assert!(approx(*direction, Vec3::NEG_Y, 1e-6));
             assert!(approx(*intensity, Vec3::splat(100.0), 1e-4));
-            assert!(
-                (cos_inner - 0.2f32.cos()).abs() < 1e-6 && (cos_outer - 0.5f32.cos()).abs() < 1e-6
-            );
+            assert!((cos_inner - 0.2f32.cos()).abs() < 1e-6 && (cos_outer - 0.5f32.cos()).abs() < 1e-6);
         }
         other => panic!("expected a spot light, got {other:?}"),
     }
@@ -240,14 +218,9 @@ fn every_index_width_and_non_indexed_give_the_same_triangles() {
     let dir = tempfile::tempdir().unwrap();
     let (p, i) = shapes::uv_sphere(Vec3::ZERO, 1.0, 6, 10);
     let mut reference: Option<Vec<[Vec3; 3]>> = None;
-    for (k, width) in [
-        IndexWidth::U8,
-        IndexWidth::U16,
-        IndexWidth::U32,
-        IndexWidth::Auto,
-    ]
-    .into_iter()
-    .enumerate()
+    for (k, width) in [IndexWidth::U8, IndexWidth::U16, IndexWidth::U32, IndexWidth::Auto]
+        .into_iter()
+        .enumerate()
     {
         let mut b = GltfBuilder::new();
         b.index_width(width);
@@ -310,33 +283,18 @@ fn node_hierarchy_transforms_accumulate_and_mirroring_keeps_orientation() {
             .with_mesh(tilted)
             .with_scale(Vec3::new(3.0, 1.0, 1.0)),
     );
-    b.camera_look_at(
-        "Cam",
-        Vec3::new(0.0, 0.0, 20.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.5,
-        None,
-    );
+    b.camera_look_at("Cam", Vec3::new(0.0, 0.0, 20.0), Vec3::ZERO, Vec3::Y, 0.5, None);
     let path = dir.path().join("h.gltf");
     b.write_gltf(&path).unwrap();
     let s = load_ok(&path);
     assert_eq!(s.triangles.len(), 8);
     let [c0, c1, m0, _, z0, _, q0, _] = [0, 1, 2, 3, 4, 5, 6, 7].map(|k| &s.triangles[k]);
     // Child world = T(10,0,0) · R_y(90°) · S(2,1,1): (1,0,0) → (2,0,0) → (0,0,−2) → (10,0,−2).
-    assert!(
-        approx(c0.p[1], Vec3::new(10.0, 0.0, -2.0), 1e-5),
-        "{:?}",
-        c0.p
-    );
+    assert!(approx(c0.p[1], Vec3::new(10.0, 0.0, -2.0), 1e-5), "{:?}", c0.p);
     assert!(approx(c0.cross().normalize(), Vec3::X, 1e-5));
     assert!(approx(c1.n.unwrap()[0], Vec3::X, 1e-5));
     for (t, expect) in [(m0, Vec3::Z), (z0, Vec3::NEG_Z)] {
-        assert!(
-            approx(t.cross().normalize(), expect, 1e-6),
-            "geometric {:?}",
-            t.cross()
-        );
+        assert!(approx(t.cross().normalize(), expect, 1e-6), "geometric {:?}", t.cross());
         assert!(approx(t.n.unwrap()[0], expect, 1e-6), "shading {:?}", t.n);
     }
     // Tilted plane x = −z scaled by 3 in x: plane 3z' ... normal ∝ (1/3, 0, 1).
@@ -360,29 +318,14 @@ fn degenerate_triangles_are_skipped_with_one_warning_per_mesh() {
     // one good, two zero-area (repeated vertex, collinear), one good
     let i = vec![0, 1, 2, 0, 0, 1, 0, 3, 4, 2, 1, 3];
     b.mesh("Sliver", &p, &i, None, None);
-    b.camera_look_at(
-        "Cam",
-        Vec3::new(0.0, 0.0, 5.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.5,
-        None,
-    );
+    b.camera_look_at("Cam", Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.5, None);
     let path = dir.path().join("d.gltf");
     b.write_gltf(&path).unwrap();
     let s = load_ok(&path);
     assert_eq!(s.triangles.len(), 2);
-    let w: Vec<&String> = s
-        .warnings
-        .iter()
-        .filter(|w| w.contains("degenerate"))
-        .collect();
+    let w: Vec<&String> = s.warnings.iter().filter(|w| w.contains("degenerate")).collect();
     assert_eq!(w.len(), 1, "{:?}", s.warnings);
-    assert!(
-        w[0].contains("'Sliver'") && w[0].contains("skipped 2"),
-        "{}",
-        w[0]
-    );
+    assert!(w[0].contains("'Sliver'") && w[0].contains("skipped 2"), "{}", w[0]);
 }
 
 #[test]
@@ -394,11 +337,7 @@ fn no_camera_gives_a_default_camera_and_a_warning() {
     let path = dir.path().join("nocam.gltf");
     b.write_gltf(&path).unwrap();
     let s = load_ok(&path);
-    assert!(
-        s.warnings.iter().any(|w| w.contains("no camera")),
-        "{:?}",
-        s.warnings
-    );
+    assert!(s.warnings.iter().any(|w| w.contains("no camera")), "{:?}", s.warnings);
     let c = &s.camera;
     assert!(approx(c.forward(), Vec3::NEG_Z, 1e-6));
     assert!((c.yfov - 40f32.to_radians()).abs() < 1e-6);
@@ -408,10 +347,7 @@ fn no_camera_gives_a_default_camera_and_a_warning() {
         centre * Vec3::new(1.0, 1.0, 0.0),
         1e-5
     ));
-    assert!(
-        c.position().z > 5.0,
-        "camera outside the bounds on the +Z side"
-    );
+    assert!(c.position().z > 5.0, "camera outside the bounds on the +Z side");
     // The whole bounding sphere is inside the field of view.
     let r = 0.5 * Vec3::new(2.0, 1.0, 4.0).length();
     assert!((r / (c.position().z - centre.z)) <= (0.5 * c.yfov).sin() + 1e-5);
@@ -446,11 +382,7 @@ fn media_scene(dir: &Path) -> PathBuf {
         None,
     );
     b.write_gltf(&dir.join("media.gltf")).unwrap();
-    std::fs::write(
-        dir.join("ramp.bgrid"),
-        write_grid(UVec3::new(2, 1, 1), &[0.0, 1.0]),
-    )
-    .unwrap();
+    std::fs::write(dir.join("ramp.bgrid"), write_grid(UVec3::new(2, 1, 1), &[0.0, 1.0])).unwrap();
     write(
         dir,
         "media.toml",
@@ -503,10 +435,7 @@ fn media_regions_nest_and_get_interfaces() {
     assert!(s.media[0].density.is_none() && s.media[1].density.is_none());
     // Default bounds of a region's grid: the region mesh's box.
     let g = s.media[2].density.as_ref().expect("milk has a grid");
-    assert!(
-        approx(g.lo, Vec3::new(-0.7, 0.8, -0.7), 1e-5)
-            && approx(g.hi, Vec3::new(0.7, 2.2, 0.7), 1e-5)
-    );
+    assert!(approx(g.lo, Vec3::new(-0.7, 0.8, -0.7), 1e-5) && approx(g.hi, Vec3::new(0.7, 2.2, 0.7), 1e-5));
     let g = s.media[3].density.as_ref().expect("ink has a grid");
     assert_eq!((g.lo, g.hi), (Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0)));
 
@@ -608,12 +537,7 @@ diffuse = 0.25
             exponent: 60.0
         })
     );
-    assert_eq!(
-        mat("TankGlass").bsdf,
-        Some(Bsdf::Mirror {
-            reflectance: Vec3::ONE
-        })
-    );
+    assert_eq!(mat("TankGlass").bsdf, Some(Bsdf::Mirror { reflectance: Vec3::ONE }));
     assert_eq!(mat("TankGlass").emission, Vec3::new(1.0, 2.0, 3.0));
     assert!(mat("TankGlass").double_sided);
     assert_eq!(
@@ -653,25 +577,15 @@ diffuse = 0.25
             "must be in [0, 1]",
         ),
         ("[materials.Statue]\nkind = \"glass\"\nior = -1\n", "ior -1"),
-        (
-            "[materials.Statue]\nkind = \"lambert\"\nalbedo = [1, 2]\n",
-            "3 numbers",
-        ),
+        ("[materials.Statue]\nkind = \"lambert\"\nalbedo = [1, 2]\n", "3 numbers"),
         (
             "[materials.Nope]\nkind = \"lambert\"\n",
             "available: 'Statue', 'TankGlass', 'White'",
         ),
     ] {
-        let p = write(
-            dir.path(),
-            "bad.toml",
-            &format!("gltf = \"media.gltf\"\n{body}"),
-        );
+        let p = write(dir.path(), "bad.toml", &format!("gltf = \"media.gltf\"\n{body}"));
         let e = load_err(&p);
-        assert!(
-            e.contains("bad.toml") && e.contains(fragment),
-            "{body}: {e}"
-        );
+        assert!(e.contains("bad.toml") && e.contains(fragment), "{body}: {e}");
     }
 }
 
@@ -684,14 +598,8 @@ fn media_errors() {
             "name = \"a\"\nregion = \"Floor\"\nsigma_s = 1",
             "must be a closed mesh, but it has 4 open edge",
         ),
-        (
-            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ng = -1",
-            "-1 < g < 1",
-        ),
-        (
-            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ng = nan",
-            "-1 < g < 1",
-        ),
+        ("name = \"a\"\nregion = \"global\"\nsigma_s = 1\ng = -1", "-1 < g < 1"),
+        ("name = \"a\"\nregion = \"global\"\nsigma_s = 1\ng = nan", "-1 < g < 1"),
         (
             "name = \"a\"\nregion = \"global\"\nsigma_s = inf",
             "finite and non-negative",
@@ -720,10 +628,7 @@ fn media_errors() {
             &format!("gltf = \"media.gltf\"\n[[media]]\n{body}\n"),
         );
         let e = load_err(&p);
-        assert!(
-            e.contains("bad.toml") && e.contains(fragment),
-            "{body}: {e}"
-        );
+        assert!(e.contains("bad.toml") && e.contains(fragment), "{body}: {e}");
     }
     // The same mesh cannot bound two media.
     let p = write(
@@ -740,29 +645,11 @@ fn render_size_and_camera_choice() {
     let mut b = GltfBuilder::new();
     let (p, i) = shapes::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
     b.mesh("Q", &p, &i, None, None);
-    b.camera_look_at(
-        "Front",
-        Vec3::new(0.0, 0.0, 5.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.5,
-        Some(2.0),
-    );
-    b.camera_look_at(
-        "Side",
-        Vec3::new(5.0, 0.0, 0.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.7,
-        Some(0.5),
-    );
+    b.camera_look_at("Front", Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 0.5, Some(2.0));
+    b.camera_look_at("Side", Vec3::new(5.0, 0.0, 0.0), Vec3::ZERO, Vec3::Y, 0.7, Some(0.5));
     b.write_gltf(&dir.path().join("two.gltf")).unwrap();
     let case = |body: &str| {
-        let p = write(
-            dir.path(),
-            "c.toml",
-            &format!("gltf = \"two.gltf\"\n[render]\n{body}"),
-        );
+        let p = write(dir.path(), "c.toml", &format!("gltf = \"two.gltf\"\n[render]\n{body}"));
         load_scene(&p)
     };
     let s = case("").unwrap();
@@ -794,17 +681,9 @@ fn unsupported_features_warn_once() {
     let (p, i) = shapes::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
     b.mesh("Q", &p, &i, None, Some(0));
     b.point_light("L", Vec3::Z, [1.0; 3], 1.0);
-    b.camera_look_at(
-        "C",
-        Vec3::new(0.0, 0.0, 3.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.5,
-        None,
-    );
+    b.camera_look_at("C", Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 0.5, None);
     let mut v: serde_json::Value = serde_json::from_str(&b.to_json_string()).unwrap();
-    v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] =
-        serde_json::json!({ "index": 0 });
+    v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = serde_json::json!({ "index": 0 });
     v["materials"][0]["emissiveTexture"] = serde_json::json!({ "index": 0 });
     v["textures"] = serde_json::json!([{ "source": 0 }]);
     v["images"] = serde_json::json!([{ "uri": "missing.png" }]);
@@ -823,11 +702,7 @@ fn unsupported_features_warn_once() {
     assert_eq!(count("KHR_texture_transform"), 1);
     assert_eq!(count("KHR_materials_clearcoat"), 1);
     assert_eq!(count("range ignored"), 1);
-    assert!(
-        s.warnings.iter().all(|w| w.starts_with("w.gltf: ")),
-        "{:?}",
-        s.warnings
-    );
+    assert!(s.warnings.iter().all(|w| w.starts_with("w.gltf: ")), "{:?}", s.warnings);
 }
 
 /// The broken-scene corpus: (file, expected fragment of the message).
@@ -835,10 +710,7 @@ const BAD_SCENES: &[(&str, &str)] = &[
     ("missing_gltf.toml", "does_not_exist.gltf"),
     ("malformed_json.gltf", "malformed glTF JSON"),
     ("truncated.glb", "truncated GLB"),
-    (
-        "short_buffer.gltf",
-        "accessor 0: needs bytes 0..1200 of bufferView 0",
-    ),
+    ("short_buffer.gltf", "accessor 0: needs bytes 0..1200 of bufferView 0"),
     ("truncated_bin.gltf", "'truncated_bin.bin' holds only"),
     ("missing_bin.gltf", "no_such_buffer.bin"),
     ("bad_base64.gltf", "malformed base64"),
@@ -858,10 +730,7 @@ const BAD_SCENES: &[(&str, &str)] = &[
     ("node_cycle.gltf", "reached twice"),
     ("malformed.toml", "TOML parse error at line 4"),
     ("unknown_key.toml", "unknown field `heigth`"),
-    (
-        "wrong_type.toml",
-        "invalid type: string \"wide\", expected u32",
-    ),
+    ("wrong_type.toml", "invalid type: string \"wide\", expected u32"),
     (
         "unknown_material.toml",
         "no glTF material named 'Statue' (available: 'White')",
@@ -877,21 +746,13 @@ const BAD_SCENES: &[(&str, &str)] = &[
     ("open_region.toml", "must be a closed mesh"),
     ("absurd_resolution.toml", "absurd resolution"),
     ("missing_grid.toml", "no_such_grid.bgrid"),
-    (
-        "bad_grid.toml",
-        "not_a_grid.bgrid: not a beamlight density grid",
-    ),
+    ("bad_grid.toml", "not_a_grid.bgrid: not a beamlight density grid"),
     ("phong_energy.toml", "not energy conserving"),
     ("two_global.toml", "at most one medium may be global"),
 ];
 
 /// Files in the corpus directory that are not cases themselves.
-const HELPERS: &[&str] = &[
-    "README.md",
-    "_valid_box.gltf",
-    "truncated_bin.bin",
-    "not_a_grid.bgrid",
-];
+const HELPERS: &[&str] = &["README.md", "_valid_box.gltf", "truncated_bin.bin", "not_a_grid.bgrid"];
 
 #[test]
 fn bad_scenes_fail_with_clear_messages() {
@@ -984,11 +845,7 @@ fn bundled_assets_load() {
     assert_eq!((cornell.render.width, cornell.render.height), (256, 256));
     assert!(cornell.media.is_empty());
     assert!(cornell.warnings.is_empty(), "{:?}", cornell.warnings);
-    let lights: Vec<_> = cornell
-        .materials
-        .iter()
-        .filter(|m| m.is_emissive())
-        .collect();
+    let lights: Vec<_> = cornell.materials.iter().filter(|m| m.is_emissive()).collect();
     assert_eq!(lights.len(), 1);
     assert!(lights[0].emission.min_element() >= 10.0 && lights[0].emission.max_element() <= 20.0);
     // The light faces down, and the camera is inside the closed room.
@@ -1009,10 +866,7 @@ fn bundled_assets_load() {
     let m = &fog.media[0];
     assert!(m.sigma_s.min_element() > 0.0 && m.sigma_a.min_element() >= 0.0 && m.g.abs() < 1.0);
     let sphere = fog.materials.iter().find(|m| m.name == "Sphere").unwrap();
-    assert!(matches!(
-        sphere.bsdf,
-        Some(Bsdf::Phong { exponent: 80.0, .. })
-    ));
+    assert!(matches!(sphere.bsdf, Some(Bsdf::Phong { exponent: 80.0, .. })));
 
     let furnace = load_ok(&scenes.join("furnace.toml"));
     assert_eq!(furnace.global_medium, Some(0));
@@ -1039,14 +893,7 @@ fn quad_json() -> serde_json::Value {
     let mut b = GltfBuilder::new();
     let (p, i) = shapes::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
     b.mesh("Q", &p, &i, None, None);
-    b.camera_look_at(
-        "C",
-        Vec3::new(0.0, 0.0, 3.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.5,
-        None,
-    );
+    b.camera_look_at("C", Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 0.5, None);
     serde_json::from_str(&b.to_json_string()).unwrap()
 }
 
@@ -1069,11 +916,7 @@ fn strips_fans_and_skipped_modes() {
     // Vertices 0,1,2,3 = (0,0),(1,0),(1,1),(0,1): as a fan both triangles face +Z.
     let s = tris_for(6, true);
     assert_eq!(s.triangles.len(), 2);
-    assert!(
-        s.triangles
-            .iter()
-            .all(|t| approx(t.cross().normalize(), Vec3::Z, 1e-6))
-    );
+    assert!(s.triangles.iter().all(|t| approx(t.cross().normalize(), Vec3::Z, 1e-6)));
     // A strip over (0,0),(1,0),(0,1),(1,1): triangles {0,1,2} and {1,3,2} (the spec's order
     // for odd triangles), both facing +Z.
     let mut b = GltfBuilder::new();
@@ -1085,11 +928,7 @@ fn strips_fans_and_skipped_modes() {
     let s = load_ok(&path);
     assert_eq!(s.triangles.len(), 2);
     assert_eq!(s.triangles[1].p, [strip[1], strip[3], strip[2]]);
-    assert!(
-        s.triangles
-            .iter()
-            .all(|t| approx(t.cross().normalize(), Vec3::Z, 1e-6))
-    );
+    assert!(s.triangles.iter().all(|t| approx(t.cross().normalize(), Vec3::Z, 1e-6)));
     // Lines and points are skipped with a warning.
     for mode in [0, 1, 3] {
         let s = tris_for(mode, false);
@@ -1154,8 +993,7 @@ fn sparse_accessors_and_external_buffers() {
     std::fs::write(&path, serde_json::to_string(&v).unwrap()).unwrap();
     let e = load_err(&path);
     assert!(
-        e.contains("sparse.gltf")
-            && e.contains("accessor 0: sparse index 9 out of range (4 elements)"),
+        e.contains("sparse.gltf") && e.contains("accessor 0: sparse index 9 out of range (4 elements)"),
         "{e}"
     );
 }
@@ -1176,21 +1014,10 @@ fn camera_by_camera_name_and_instanced_region_mesh() {
             .with_mesh(cube)
             .with_translation(Vec3::new(2.0, 0.0, 0.0)),
     );
-    b.camera_look_at(
-        "CamNode",
-        Vec3::new(0.0, 0.0, 8.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        0.5,
-        None,
-    );
+    b.camera_look_at("CamNode", Vec3::new(0.0, 0.0, 8.0), Vec3::ZERO, Vec3::Y, 0.5, None);
     let mut v: serde_json::Value = serde_json::from_str(&b.to_json_string()).unwrap();
     v["cameras"][0]["name"] = serde_json::json!("Lens");
-    std::fs::write(
-        dir.path().join("i.gltf"),
-        serde_json::to_string(&v).unwrap(),
-    )
-    .unwrap();
+    std::fs::write(dir.path().join("i.gltf"), serde_json::to_string(&v).unwrap()).unwrap();
     let toml = write(
         dir.path(),
         "i.toml",

@@ -41,7 +41,8 @@ fn big_scene() -> &'static (Vec<[Vec3; 3]>, Bvh) {
 #[divan::bench(sample_count = 3, sample_size = 1)]
 fn bvh_build_1m_triangles(b: Bencher) {
     let tris = big_scene().0.clone();
-    b.counter(ItemsCount::new(tris.len())).bench(|| Bvh::from_positions(tris.clone()));
+    b.counter(ItemsCount::new(tris.len()))
+        .bench(|| Bvh::from_positions(tris.clone()));
 }
 
 const RAYS: usize = 100_000;
@@ -62,14 +63,19 @@ fn rays() -> Vec<(Vec3, Vec3)> {
 fn closest_hit_rays(b: Bencher) {
     let bvh = &big_scene().1;
     let rays = rays();
-    b.counter(ItemsCount::new(RAYS)).bench(|| rays.iter().filter(|(o, d)| bvh.closest_hit(*o, *d, f32::INFINITY).is_some()).count());
+    b.counter(ItemsCount::new(RAYS)).bench(|| {
+        rays.iter()
+            .filter(|(o, d)| bvh.closest_hit(*o, *d, f32::INFINITY).is_some())
+            .count()
+    });
 }
 
 #[divan::bench(sample_count = 10)]
 fn visibility_rays(b: Bencher) {
     let bvh = &big_scene().1;
     let rays = rays();
-    b.counter(ItemsCount::new(RAYS)).bench(|| rays.iter().filter(|(o, d)| bvh.occluded(*o, *d, f32::INFINITY)).count());
+    b.counter(ItemsCount::new(RAYS))
+        .bench(|| rays.iter().filter(|(o, d)| bvh.occluded(*o, *d, f32::INFINITY)).count());
 }
 
 /// One path-traced sample for every pixel of the 256×256 fog box, on one thread.

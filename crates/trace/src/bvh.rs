@@ -29,16 +29,26 @@ impl Bvh {
     /// Builds over raw triangles (index = position in `tris`).
     pub fn from_positions(tris: Vec<[Vec3; 3]>) -> Self {
         if tris.is_empty() {
-            return Self { bvh: None, positions: Vec::new() };
+            return Self {
+                bvh: None,
+                positions: Vec::new(),
+            };
         }
         let prims: Vec<ObvhsTriangle> = tris
             .iter()
-            .map(|p| ObvhsTriangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() })
+            .map(|p| ObvhsTriangle {
+                v0: p[0].into(),
+                v1: p[1].into(),
+                v2: p[2].into(),
+            })
             .collect();
         let mut build_time = std::time::Duration::ZERO;
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&prims, BvhBuildParams::medium_build(), &mut build_time);
         let positions = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
-        Self { bvh: Some(bvh), positions }
+        Self {
+            bvh: Some(bvh),
+            positions,
+        }
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -60,7 +70,12 @@ impl Bvh {
                 None => f32::INFINITY,
             }
         });
-        found.then(|| Hit { t: hit.t, tri: bvh.primitive_indices[hit.primitive_id as usize], b1: best.0, b2: best.1 })
+        found.then(|| Hit {
+            t: hit.t,
+            tri: bvh.primitive_indices[hit.primitive_id as usize],
+            b1: best.0,
+            b2: best.1,
+        })
     }
 
     /// True when anything lies on `o + t·d` for `t` in `(0, tmax)`.

@@ -38,8 +38,17 @@ impl TraceScene {
     pub fn new(scene: Scene) -> Self {
         let bvh = Bvh::build(&scene);
         let lights = LightSampler::new(&scene);
-        let has_null_interfaces = scene.triangles.iter().any(|t| scene.materials[t.material as usize].bsdf.is_none());
-        let mut ts = Self { scene, bvh, lights, camera_medium: None, has_null_interfaces };
+        let has_null_interfaces = scene
+            .triangles
+            .iter()
+            .any(|t| scene.materials[t.material as usize].bsdf.is_none());
+        let mut ts = Self {
+            scene,
+            bvh,
+            lights,
+            camera_medium: None,
+            has_null_interfaces,
+        };
         ts.camera_medium = ts.medium_at(ts.scene.camera.position());
         ts
     }
@@ -54,7 +63,13 @@ impl TraceScene {
         let ng = t.cross().normalize();
         let ns = t.shading_normal(h.b1, h.b2);
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-        SurfaceHit { p, ng, ns, tri: h.tri, material: t.material }
+        SurfaceHit {
+            p,
+            ng,
+            ns,
+            tri: h.tri,
+            material: t.material,
+        }
     }
 
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(Hit, SurfaceHit)> {
@@ -67,9 +82,15 @@ impl TraceScene {
         let d = Vec3::new(0.267_261_24, 0.534_522_5, 0.801_783_7); // any fixed, non axis-aligned direction
         let mut o = p;
         for _ in 0..MAX_CROSSINGS * 4 {
-            let Some((_, sh)) = self.intersect(o, d, f32::INFINITY) else { break };
+            let Some((_, sh)) = self.intersect(o, d, f32::INFINITY) else {
+                break;
+            };
             if let Some(iface) = self.scene.triangles[sh.tri as usize].interface {
-                return if d.dot(sh.ng) > 0.0 { iface.inside } else { iface.outside };
+                return if d.dot(sh.ng) > 0.0 {
+                    iface.inside
+                } else {
+                    iface.outside
+                };
             }
             o = offset_ray_origin(sh.p, face_towards(sh.ng, d));
         }

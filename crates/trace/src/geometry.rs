@@ -36,7 +36,11 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     const ORIGIN: f32 = 1.0 / 32.0;
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
     const INT_SCALE: f32 = 256.0;
-    let of_i = IVec3::new((INT_SCALE * n.x) as i32, (INT_SCALE * n.y) as i32, (INT_SCALE * n.z) as i32);
+    let of_i = IVec3::new(
+        (INT_SCALE * n.x) as i32,
+        (INT_SCALE * n.y) as i32,
+        (INT_SCALE * n.z) as i32,
+    );
     let step = |p: f32, o: i32, n: f32| -> f32 {
         if p.abs() < ORIGIN {
             p + FLOAT_SCALE * n
@@ -71,14 +75,21 @@ mod tests {
     #[test]
     fn offset_leaves_the_surface_at_any_scale() {
         for scale in [1e-3f32, 1.0, 1e3, 1e5] {
-            let tri = [Vec3::new(0.3, 0.1, 0.7) * scale, Vec3::new(1.1, 0.2, 0.9) * scale, Vec3::new(0.4, 1.3, 0.2) * scale];
+            let tri = [
+                Vec3::new(0.3, 0.1, 0.7) * scale,
+                Vec3::new(1.1, 0.2, 0.9) * scale,
+                Vec3::new(0.4, 1.3, 0.2) * scale,
+            ];
             let ng = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
             let p = tri[0] * 0.3 + tri[1] * 0.3 + tri[2] * 0.4;
             let o = offset_ray_origin(p, ng);
             // Leaving along the normal's side must not hit the triangle itself.
             let d = (ng + Vec3::new(0.3, -0.2, 0.1)).normalize();
             let d = face_towards(d, ng);
-            assert!(intersect_triangle(o, d, &tri, 0.0, f32::INFINITY).is_none(), "scale {scale}");
+            assert!(
+                intersect_triangle(o, d, &tri, 0.0, f32::INFINITY).is_none(),
+                "scale {scale}"
+            );
             // Going back must hit it, very close.
             let back = offset_ray_origin(p, -ng);
             assert!((back - p).length() <= 1e-4 * scale.max(1.0));

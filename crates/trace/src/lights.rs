@@ -37,7 +37,11 @@ pub struct LightSampler {
 impl LightSampler {
     pub fn new(scene: &Scene) -> Self {
         let (lo, hi) = scene.bounds();
-        let radius = if lo.is_finite() && hi.is_finite() { 0.5 * (hi - lo).length() } else { 1.0 };
+        let radius = if lo.is_finite() && hi.is_finite() {
+            0.5 * (hi - lo).length()
+        } else {
+            1.0
+        };
         let mut lights = Vec::new();
         let mut power = Vec::new();
         for (i, t) in scene.triangles.iter().enumerate() {
@@ -59,7 +63,11 @@ impl LightSampler {
                 tri_pmf[*t as usize] = select.pmf(k);
             }
         }
-        Self { lights, select, tri_pmf }
+        Self {
+            lights,
+            select,
+            tri_pmf,
+        }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -96,7 +104,14 @@ impl LightSampler {
                 if !(pdf.is_finite() && pdf > 0.0) {
                     return None;
                 }
-                Some(LightSample { p: q, n: Some(n), wi, dist, contribution: m.emission / pdf, pdf })
+                Some(LightSample {
+                    p: q,
+                    n: Some(n),
+                    wi,
+                    dist,
+                    contribution: m.emission / pdf,
+                    pdf,
+                })
             }
             LightRef::Punctual(li) => {
                 let l = &scene.lights[li as usize];
@@ -119,7 +134,14 @@ impl LightSampler {
                         let dist = dist2.sqrt();
                         let wi = to / dist;
                         let contribution = l.intensity_towards(-wi) / (dist2 * pmf);
-                        contribution.is_finite().then_some(LightSample { p: q, n: None, wi, dist, contribution, pdf: 0.0 })
+                        contribution.is_finite().then_some(LightSample {
+                            p: q,
+                            n: None,
+                            wi,
+                            dist,
+                            contribution,
+                            pdf: 0.0,
+                        })
                     }
                 }
             }

@@ -27,7 +27,11 @@ pub enum MediumEvent {
 fn channel_pmf(throughput: Rgb) -> Rgb {
     let w = throughput.abs();
     let sum = w.x + w.y + w.z;
-    if sum > 0.0 && sum.is_finite() { w / sum } else { Rgb::splat(1.0 / 3.0) }
+    if sum > 0.0 && sum.is_finite() {
+        w / sum
+    } else {
+        Rgb::splat(1.0 / 3.0)
+    }
 }
 
 fn pick_channel(pmf: Rgb, u: f32) -> usize {
@@ -67,7 +71,10 @@ fn sample_homogeneous(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler) -
         let tr = homogeneous_transmittance(sigma_t, t);
         let pdf = (pmf * sigma_t * tr).element_sum();
         if pdf > 0.0 && pdf.is_finite() {
-            return MediumEvent::Scatter { t, weight: m.sigma_s * tr / pdf };
+            return MediumEvent::Scatter {
+                t,
+                weight: m.sigma_s * tr / pdf,
+            };
         }
         // Underflow deep inside a very dense medium: nothing reaches here anyway.
         return MediumEvent::Pass { weight: Rgb::ZERO };
@@ -116,7 +123,15 @@ pub fn transmittance(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sampler) -
     }
 }
 
-fn sample_grid(m: &Medium, grid: &DensityGrid, o: Vec3, d: Vec3, tmax: f32, throughput: Rgb, s: &mut Sampler) -> MediumEvent {
+fn sample_grid(
+    m: &Medium,
+    grid: &DensityGrid,
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+    throughput: Rgb,
+    s: &mut Sampler,
+) -> MediumEvent {
     let sigma_t = m.sigma_t();
     let sigma_max = sigma_t.max_element();
     let mut weight = Rgb::ONE;
@@ -148,7 +163,10 @@ fn sample_grid(m: &Medium, grid: &DensityGrid, o: Vec3, d: Vec3, tmax: f32, thro
             }
             let p_s = p_s_raw / norm;
             if s.next_1d() < p_s {
-                result = Some(MediumEvent::Scatter { t, weight: weight * sig_s / (mu * p_s) });
+                result = Some(MediumEvent::Scatter {
+                    t,
+                    weight: weight * sig_s / (mu * p_s),
+                });
                 return false;
             }
             weight *= sig_n / (mu * (1.0 - p_s));
@@ -175,7 +193,11 @@ fn walk_majorant_cells(grid: &DensityGrid, o: Vec3, d: Vec3, tmax: f32, mut f: i
     let res = grid.majorant_res;
     let cell = grid.majorant_cell_size();
     let p = o + d * t_enter;
-    let mut c = ((p - grid.lo) / cell).floor().max(Vec3::ZERO).as_uvec3().min(res - UVec3::ONE);
+    let mut c = ((p - grid.lo) / cell)
+        .floor()
+        .max(Vec3::ZERO)
+        .as_uvec3()
+        .min(res - UVec3::ONE);
     // 3-D DDA (Amanatides & Woo).
     let step = d.signum();
     let mut t_next = Vec3::ZERO;
@@ -221,7 +243,13 @@ mod tests {
     use super::*;
 
     fn medium(sigma_s: Rgb, sigma_a: Rgb, density: Option<DensityGrid>) -> Medium {
-        Medium { name: "m".into(), sigma_s, sigma_a, g: 0.0, density }
+        Medium {
+            name: "m".into(),
+            sigma_s,
+            sigma_a,
+            g: 0.0,
+            density,
+        }
     }
 
     /// Ratio tracking through a grid must be an unbiased estimate of exp(−∫σt).
@@ -268,7 +296,10 @@ mod tests {
         // E[sum of weights of scatter events] = ∫0^tmax σs e^{-σt t} dt.
         let expected = sigma_s / sigma_t * (Rgb::ONE - homogeneous_transmittance(sigma_t, tmax));
         let expected_pass = homogeneous_transmittance(sigma_t, tmax);
-        for m in [medium(sigma_s, sigma_a, None), medium(sigma_s, sigma_a, Some(grid.clone()))] {
+        for m in [
+            medium(sigma_s, sigma_a, None),
+            medium(sigma_s, sigma_a, Some(grid.clone())),
+        ] {
             let n = 300_000;
             let (mut scat, mut pass) = (Rgb::ZERO, Rgb::ZERO);
             for i in 0..n {
@@ -284,8 +315,15 @@ mod tests {
                 }
             }
             let (scat, pass) = (scat / n as f32, pass / n as f32);
-            assert!((scat - expected).abs().max_element() < 0.01, "{} scatter {scat} vs {expected}", m.is_homogeneous());
-            assert!((pass - expected_pass).abs().max_element() < 0.01, "pass {pass} vs {expected_pass}");
+            assert!(
+                (scat - expected).abs().max_element() < 0.01,
+                "{} scatter {scat} vs {expected}",
+                m.is_homogeneous()
+            );
+            assert!(
+                (pass - expected_pass).abs().max_element() < 0.01,
+                "pass {pass} vs {expected_pass}"
+            );
         }
     }
 

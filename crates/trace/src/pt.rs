@@ -6,7 +6,9 @@ use crate::{
     geometry::{face_towards, offset_ray_origin},
     media::{self, MediumEvent},
 };
-use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling::power_heuristic, scene::MediumId};
+use beamlight_scene::{
+    Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling::power_heuristic, scene::MediumId,
+};
 use glam::{Vec2, Vec3};
 
 #[derive(Clone, Copy, Debug)]
@@ -20,22 +22,43 @@ pub struct PathTracerSettings {
 
 impl Default for PathTracerSettings {
     fn default() -> Self {
-        Self { max_depth: None, rr_depth: 3 }
+        Self {
+            max_depth: None,
+            rr_depth: 3,
+        }
     }
 }
 
 /// One radiance sample for pixel `(x, y)` of a `width × height` image: a jittered camera ray
 /// (box filter) traced with the pass's own random stream.
-pub fn sample_pixel(ts: &TraceScene, settings: &PathTracerSettings, x: u32, y: u32, width: u32, height: u32, s: &mut Sampler) -> Rgb {
+pub fn sample_pixel(
+    ts: &TraceScene,
+    settings: &PathTracerSettings,
+    x: u32,
+    y: u32,
+    width: u32,
+    height: u32,
+    s: &mut Sampler,
+) -> Rgb {
     let jitter = s.next_2d();
-    let film = Vec2::new((x as f32 + jitter.x) / width as f32, (y as f32 + jitter.y) / height as f32);
+    let film = Vec2::new(
+        (x as f32 + jitter.x) / width as f32,
+        (y as f32 + jitter.y) / height as f32,
+    );
     let cam = &ts.scene.camera;
     let d = cam.direction(film, width as f32 / height as f32);
     radiance(ts, settings, cam.position(), d, ts.camera_medium, s)
 }
 
 /// Radiance arriving at `o` from direction `-d`, for a ray starting in `medium`.
-pub fn radiance(ts: &TraceScene, settings: &PathTracerSettings, mut o: Vec3, mut d: Vec3, mut medium: MediumId, s: &mut Sampler) -> Rgb {
+pub fn radiance(
+    ts: &TraceScene,
+    settings: &PathTracerSettings,
+    mut o: Vec3,
+    mut d: Vec3,
+    mut medium: MediumId,
+    s: &mut Sampler,
+) -> Rgb {
     let scene = &ts.scene;
     let max_depth = settings.max_depth.unwrap_or(u32::MAX);
     let mut l = Rgb::ZERO;
@@ -68,7 +91,11 @@ pub fn radiance(ts: &TraceScene, settings: &PathTracerSettings, mut o: Vec3, mut
                         let f = phase.eval(wo, ls.wi);
                         if f > 0.0 {
                             let tr = ts.shadow_transmittance(p, None, ls.wi, ls.dist, ls.n, medium, s);
-                            let w = if ls.pdf > 0.0 { power_heuristic(ls.pdf, phase.pdf(wo, ls.wi)) } else { 1.0 };
+                            let w = if ls.pdf > 0.0 {
+                                power_heuristic(ls.pdf, phase.pdf(wo, ls.wi))
+                            } else {
+                                1.0
+                            };
                             l += beta * tr * ls.contribution * (f * w);
                         }
                     }
@@ -130,22 +157,28 @@ pub fn radiance(ts: &TraceScene, settings: &PathTracerSettings, mut o: Vec3, mut
         // light leak through (both directions must agree with the geometric normal's side).
         let transmissive = matches!(bsdf, beamlight_scene::bsdf::Bsdf::Glass { .. });
 
-        if !bsdf.is_delta() {
-            if let Some(ls) = ts.lights.sample(scene, sh.p, s) {
-                let same_side = sh.ng.dot(ls.wi) * sh.ng.dot(wo) > 0.0;
-                let wi_local = frame.to_local(ls.wi);
-                let f = bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
-                if (same_side || transmissive) && f != Rgb::ZERO {
-                    let tr = ts.shadow_transmittance(sh.p, Some(sh.ng), ls.wi, ls.dist, ls.n, medium, s);
-                    let w = if ls.pdf > 0.0 { power_heuristic(ls.pdf, bsdf.pdf(wo_local, wi_local)) } else { 1.0 };
-                    l += beta * f * tr * ls.contribution * w;
-                }
+        if !bsdf.is_delta()
+            && let Some(ls) = ts.lights.sample(scene, sh.p, s)
+        {
+            let same_side = sh.ng.dot(ls.wi) * sh.ng.dot(wo) > 0.0;
+            let wi_local = frame.to_local(ls.wi);
+            let f = bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+            if (same_side || transmissive) && f != Rgb::ZERO {
+                let tr = ts.shadow_transmittance(sh.p, Some(sh.ng), ls.wi, ls.dist, ls.n, medium, s);
+                let w = if ls.pdf > 0.0 {
+                    power_heuristic(ls.pdf, bsdf.pdf(wo_local, wi_local))
+                } else {
+                    1.0
+                };
+                l += beta * f * tr * ls.contribution * w;
             }
         }
 
         let u = s.next_2d();
         let u_lobe = s.next_1d();
-        let Some(bs) = bsdf.sample(wo_local, u, u_lobe) else { break };
+        let Some(bs) = bsdf.sample(wo_local, u, u_lobe) else {
+            break;
+        };
         let wi = frame.to_world(bs.wi);
         if !transmissive && sh.ng.dot(wi) * sh.ng.dot(wo) <= 0.0 {
             break;

@@ -43,37 +43,16 @@ pub(super) fn build_scene(
         None => MediaPlan::empty(root.meshes.len()),
     };
     let mut geo = build_triangles(&src, &doc, &trav, &plan, &mut materials, &mut warnings)?;
-    let (media, global_medium) =
-        media::finish_media(toml.map(|(t, _)| t), root, plan, &mut geo, &mut warnings)?;
+    let (media, global_medium) = media::finish_media(toml.map(|(t, _)| t), root, plan, &mut geo, &mut warnings)?;
 
     let mut lights = Vec::new();
     for &(node, light, world) in &trav.lights {
-        lights.push(convert_light(
-            &src,
-            root,
-            node,
-            light,
-            world,
-            &mut warnings,
-        )?);
+        lights.push(convert_light(&src, root, node, light, world, &mut warnings)?);
     }
-    let (camera, aspect) = choose_camera(
-        &src,
-        root,
-        &trav,
-        toml,
-        &geo.triangles,
-        &lights,
-        &mut warnings,
-    )?;
+    let (camera, aspect) = choose_camera(&src, root, &trav, toml, &geo.triangles, &lights, &mut warnings)?;
     let render = render_settings(toml, aspect)?;
 
-    let meshes = root
-        .meshes
-        .iter()
-        .enumerate()
-        .map(|(i, m)| mesh_name(m, i))
-        .collect();
+    let meshes = root.meshes.iter().enumerate().map(|(i, m)| mesh_name(m, i)).collect();
     Ok(Scene {
         source: source.to_path_buf(),
         triangles: geo.triangles,
@@ -137,10 +116,9 @@ fn feature_warnings(src: &Src, root: &json::Root, warnings: &mut Vec<String>) {
         ));
     }
     let colors = root.meshes.iter().any(|m| {
-        m.primitives.iter().any(|p| {
-            p.attributes
-                .contains_key(&Checked::Valid(Semantic::Colors(0)))
-        })
+        m.primitives
+            .iter()
+            .any(|p| p.attributes.contains_key(&Checked::Valid(Semantic::Colors(0))))
     });
     if colors {
         warnings.push(format!("{f}: vertex colours ignored"));
@@ -175,24 +153,17 @@ fn local_matrix(src: &Src, root: &json::Root, i: usize) -> Result<Mat4, SceneErr
         Mat4::from_scale_rotation_translation(s, q.normalize(), t)
     };
     if !m.is_finite() {
-        return Err(src.err(format!(
-            "{}: transform has non-finite entries",
-            node_label(root, i)
-        )));
+        return Err(src.err(format!("{}: transform has non-finite entries", node_label(root, i))));
     }
     Ok(m)
 }
 
-fn traverse(
-    src: &Src,
-    root: &json::Root,
-    warnings: &mut Vec<String>,
-) -> Result<Traversal, SceneError> {
-    let roots: Vec<usize> = match root.scene.map(|s| s.value()).or(if root.scenes.is_empty() {
-        None
-    } else {
-        Some(0)
-    }) {
+fn traverse(src: &Src, root: &json::Root, warnings: &mut Vec<String>) -> Result<Traversal, SceneError> {
+    let roots: Vec<usize> = match root
+        .scene
+        .map(|s| s.value())
+        .or(if root.scenes.is_empty() { None } else { Some(0) })
+    {
         Some(s) => root.scenes[s].nodes.iter().map(|n| n.value()).collect(),
         None => {
             let mut is_child = vec![false; root.nodes.len()];
@@ -227,10 +198,7 @@ fn traverse(
         }
         let world = parent * local_matrix(src, root, i)?;
         if !world.is_finite() {
-            return Err(src.err(format!(
-                "{}: world transform overflows",
-                node_label(root, i)
-            )));
+            return Err(src.err(format!("{}: world transform overflows", node_label(root, i))));
         }
         let n = &root.nodes[i];
         if let Some(m) = n.mesh {
@@ -239,11 +207,7 @@ fn traverse(
         if let Some(c) = n.camera {
             out.cameras.push((i, c.value(), world));
         }
-        if let Some(l) = n
-            .extensions
-            .as_ref()
-            .and_then(|e| e.khr_lights_punctual.as_ref())
-        {
+        if let Some(l) = n.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
             let count = root
                 .extensions
                 .as_ref()
@@ -278,11 +242,7 @@ fn check_color(what: &str, c: [f32; 3], max: Option<f32>) -> Result<Rgb, String>
     Ok(Vec3::from(c))
 }
 
-fn convert_materials(
-    src: &Src,
-    root: &json::Root,
-    warnings: &mut Vec<String>,
-) -> Result<Vec<Material>, SceneError> {
+fn convert_materials(src: &Src, root: &json::Root, warnings: &mut Vec<String>) -> Result<Vec<Material>, SceneError> {
     let f = src.name();
     let mut out = Vec::with_capacity(root.materials.len());
     for (i, m) in root.materials.iter().enumerate() {
@@ -300,8 +260,7 @@ fn convert_materials(
                 "emissiveStrength {strength} must be finite and non-negative"
             )));
         }
-        let emission =
-            check_color("emissiveFactor", m.emissive_factor.0, None).map_err(err)? * strength;
+        let emission = check_color("emissiveFactor", m.emissive_factor.0, None).map_err(err)? * strength;
         let transmission = ext.and_then(|e| e.transmission.as_ref());
         let textured = pbr.base_color_texture.is_some()
             || pbr.metallic_roughness_texture.is_some()
@@ -314,13 +273,8 @@ fn convert_materials(
                 "{f}: {label}: textures ignored (the constant factors are used)"
             ));
         }
-        if !matches!(
-            m.alpha_mode,
-            Checked::Valid(json::material::AlphaMode::Opaque)
-        ) {
-            warnings.push(format!(
-                "{f}: {label}: alphaMode ignored (treated as OPAQUE)"
-            ));
+        if !matches!(m.alpha_mode, Checked::Valid(json::material::AlphaMode::Opaque)) {
+            warnings.push(format!("{f}: {label}: alphaMode ignored (treated as OPAQUE)"));
         }
         let bsdf = match transmission.map(|t| t.transmission_factor.0) {
             Some(t) if t > 0.0 => {
@@ -353,12 +307,7 @@ fn convert_materials(
     Ok(out)
 }
 
-fn apply_overrides(
-    t: &TomlSrc,
-    sc: &Sidecar,
-    root: &json::Root,
-    materials: &mut [Material],
-) -> Result<(), SceneError> {
+fn apply_overrides(t: &TomlSrc, sc: &Sidecar, root: &json::Root, materials: &mut [Material]) -> Result<(), SceneError> {
     for (name, o) in &sc.materials {
         let targets: Vec<usize> = (0..root.materials.len())
             .filter(|&i| root.materials[i].name.as_deref() == Some(name.get_ref()))
@@ -400,8 +349,7 @@ fn override_material(
     m: &mut Material,
 ) -> Result<(), SceneError> {
     let section = format!("[materials.{}]", name.get_ref());
-    let bad =
-        |span: std::ops::Range<usize>, what: String| t.err_at(span, format!("{section}: {what}"));
+    let bad = |span: std::ops::Range<usize>, what: String| t.err_at(span, format!("{section}: {what}"));
     let color = |v: &Spanned<Rgb3>, key: &str, max: Option<f32>| -> Result<Rgb, SceneError> {
         check_color(key, v.get_ref().0, max).map_err(|e| bad(v.span(), e))
     };
@@ -449,10 +397,7 @@ fn override_material(
         let bsdf = match kind.get_ref().as_str() {
             "lambert" => {
                 if o.albedo.is_some() && o.diffuse.is_some() {
-                    return Err(bad(
-                        kind.span(),
-                        "give either 'albedo' or 'diffuse', not both".into(),
-                    ));
+                    return Err(bad(kind.span(), "give either 'albedo' or 'diffuse', not both".into()));
                 }
                 let albedo = match o.albedo.as_ref().or(o.diffuse.as_ref()) {
                     Some(v) => color(v, "albedo", Some(1.0))?,
@@ -511,10 +456,7 @@ fn override_material(
                 let ior = match &o.ior {
                     Some(v) if v.get_ref().is_finite() && *v.get_ref() > 0.0 => *v.get_ref(),
                     Some(v) => {
-                        return Err(bad(
-                            v.span(),
-                            format!("ior {} must be finite and > 0", v.get_ref()),
-                        ));
+                        return Err(bad(v.span(), format!("ior {} must be finite and > 0", v.get_ref())));
                     }
                     None => 1.5,
                 };
@@ -584,14 +526,9 @@ fn build_triangles(
                     Checked::Valid(m) => m,
                     Checked::Invalid => return Err(src.err(format!("{what}: invalid mode"))),
                 };
-                if !matches!(
-                    mode,
-                    Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-                ) {
+                if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
                     if !std::mem::replace(&mut warned_mode[mesh_i], true) {
-                        warnings.push(format!(
-                            "{f}: {what}: mode {mode:?} is not triangles; skipped"
-                        ));
+                        warnings.push(format!("{f}: {what}: mode {mode:?} is not triangles; skipped"));
                     }
                     continue;
                 }
@@ -605,10 +542,7 @@ fn build_triangles(
                     .map(Vec3::from)
                     .collect();
                 if let Some(v) = positions.iter().position(|p| !p.is_finite()) {
-                    return Err(src.err(format!(
-                        "{what}: vertex {v} has a non-finite position {}",
-                        positions[v]
-                    )));
+                    return Err(src.err(format!("{what}: vertex {v} has a non-finite position {}", positions[v])));
                 }
                 let normals = match p.attributes.get(&Checked::Valid(Semantic::Normals)) {
                     Some(acc) => {
@@ -625,10 +559,7 @@ fn build_triangles(
                             )));
                         }
                         if let Some(v) = n.iter().position(|p| !p.is_finite()) {
-                            return Err(src.err(format!(
-                                "{what}: vertex {v} has a non-finite normal {}",
-                                n[v]
-                            )));
+                            return Err(src.err(format!("{what}: vertex {v} has a non-finite normal {}", n[v])));
                         }
                         Some(n)
                     }
@@ -650,17 +581,10 @@ fn build_triangles(
                             return Err(src.err(format!(
                                 "{what}: {} {} is not a multiple of 3",
                                 indices.len(),
-                                if p.indices.is_some() {
-                                    "indices"
-                                } else {
-                                    "vertices"
-                                }
+                                if p.indices.is_some() { "indices" } else { "vertices" }
                             )));
                         }
-                        indices
-                            .chunks_exact(3)
-                            .map(|c| [c[0], c[1], c[2]])
-                            .collect()
+                        indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
                     }
                     Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
                         .map(|k| {
@@ -725,11 +649,7 @@ fn build_triangles(
                     (materials.len() - 1) as u32
                 }),
             };
-            let wp: Vec<Vec3> = prim
-                .positions
-                .iter()
-                .map(|&p| world.transform_point3(p))
-                .collect();
+            let wp: Vec<Vec3> = prim.positions.iter().map(|&p| world.transform_point3(p)).collect();
             if let Some(v) = wp.iter().position(|p| !p.is_finite()) {
                 return Err(src.err(format!(
                     "{} under {}: vertex {v} overflows to {} in world space",
@@ -738,11 +658,10 @@ fn build_triangles(
                     wp[v]
                 )));
             }
-            let wn: Option<Vec<Vec3>> = prim.normals.as_ref().map(|n| {
-                n.iter()
-                    .map(|&n| (normal_matrix * n).normalize_or_zero())
-                    .collect()
-            });
+            let wn: Option<Vec<Vec3>> = prim
+                .normals
+                .as_ref()
+                .map(|n| n.iter().map(|&n| (normal_matrix * n).normalize_or_zero()).collect());
             for &[a, b, c] in &prim.tris {
                 let [a, b, c] = if flip { [a, c, b] } else { [a, b, c] };
                 let p = [wp[a as usize], wp[b as usize], wp[c as usize]];
@@ -761,11 +680,7 @@ fn build_triangles(
                 }
                 let n = wn.as_ref().and_then(|wn| {
                     let n = [wn[a as usize], wn[b as usize], wn[c as usize]];
-                    if n.contains(&Vec3::ZERO) {
-                        None
-                    } else {
-                        Some(n)
-                    }
+                    if n.contains(&Vec3::ZERO) { None } else { Some(n) }
                 });
                 triangles.push(Triangle {
                     p,
@@ -836,18 +751,13 @@ fn convert_light(
     let direction = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
     let dir_ok = || {
         if direction == Vec3::ZERO || !direction.is_finite() {
-            Err(err(
-                "the node transform leaves no direction (zero scale)".into()
-            ))
+            Err(err("the node transform leaves no direction (zero scale)".into()))
         } else {
             Ok(direction)
         }
     };
     Ok(match l.type_ {
-        Checked::Valid(Type::Point) => PunctualLight::Point {
-            position,
-            intensity,
-        },
+        Checked::Valid(Type::Point) => PunctualLight::Point { position, intensity },
         Checked::Valid(Type::Directional) => PunctualLight::Directional {
             direction: dir_ok()?,
             irradiance: intensity,
@@ -896,8 +806,7 @@ fn choose_camera(
     warnings: &mut Vec<String>,
 ) -> Result<(Camera, Option<f32>), SceneError> {
     use json::camera::Type;
-    let is_perspective =
-        |c: usize| matches!(root.cameras[c].type_, Checked::Valid(Type::Perspective));
+    let is_perspective = |c: usize| matches!(root.cameras[c].type_, Checked::Valid(Type::Perspective));
     let wanted = toml.and_then(|(t, sc)| sc.render.camera.as_ref().map(|c| (t, c)));
     let chosen: Option<&(usize, usize, Mat4)> = match wanted {
         Some((t, name)) => {
@@ -915,13 +824,13 @@ fn choose_camera(
                 let names: Vec<String> = trav
                     .cameras
                     .iter()
-                    .map(|&(node, cam, _)| {
-                        match (&root.nodes[node].name, &root.cameras[cam].name) {
+                    .map(
+                        |&(node, cam, _)| match (&root.nodes[node].name, &root.cameras[cam].name) {
                             (Some(n), _) => format!("'{n}'"),
                             (None, Some(c)) => format!("'{c}' (camera name)"),
                             (None, None) => format!("unnamed node #{node}"),
-                        }
-                    })
+                        },
+                    )
                     .collect();
                 let list = if names.is_empty() {
                     "the glTF scene has no cameras".to_string()
@@ -930,15 +839,15 @@ fn choose_camera(
                 };
                 return Err(t.err_at(
                     name.span(),
-                    format!(
-                        "[render] camera = \"{n}\": no camera node or camera of that name ({list})"
-                    ),
+                    format!("[render] camera = \"{n}\": no camera node or camera of that name ({list})"),
                 ));
             };
             if !is_perspective(found.1) {
                 return Err(t.err_at(
                     name.span(),
-                    format!("[render] camera = \"{n}\": orthographic cameras are unsupported (use a perspective camera)"),
+                    format!(
+                        "[render] camera = \"{n}\": orthographic cameras are unsupported (use a perspective camera)"
+                    ),
                 ));
             }
             Some(found)
@@ -973,22 +882,16 @@ fn choose_camera(
             ))
         })?;
         if !(p.yfov > 0.0 && p.yfov < std::f32::consts::PI) {
-            return Err(src.err(format!(
-                "{label}: yfov {} must be in (0, pi) radians",
-                p.yfov
-            )));
+            return Err(src.err(format!("{label}: yfov {} must be in (0, pi) radians", p.yfov)));
         }
         let aspect = match p.aspect_ratio {
             Some(a) if a.is_finite() && a > 0.0 => Some(a),
             Some(a) => {
-                return Err(src.err(format!(
-                    "{label}: aspectRatio {a} must be finite and positive"
-                )));
+                return Err(src.err(format!("{label}: aspectRatio {a} must be finite and positive")));
             }
             None => None,
         };
-        let to_world = rigid(world)
-            .ok_or_else(|| src.err(format!("{label}: the camera transform is singular")))?;
+        let to_world = rigid(world).ok_or_else(|| src.err(format!("{label}: the camera transform is singular")))?;
         return Ok((
             Camera {
                 to_world,
@@ -1032,10 +935,7 @@ fn choose_camera(
     ))
 }
 
-fn render_settings(
-    toml: Option<(&TomlSrc, &Sidecar)>,
-    aspect: Option<f32>,
-) -> Result<RenderSettings, SceneError> {
+fn render_settings(toml: Option<(&TomlSrc, &Sidecar)>, aspect: Option<f32>) -> Result<RenderSettings, SceneError> {
     let from_aspect = |v: f32| (v.round() as u32).clamp(1, MAX_RESOLUTION);
     let aspect = aspect.unwrap_or(1.0);
     let (w, h) = toml.map_or((None, None), |(_, sc)| {
@@ -1046,7 +946,10 @@ fn render_settings(
             if let Some(v) = v.filter(|v| !(1..=MAX_RESOLUTION).contains(v.get_ref())) {
                 return Err(t.err_at(
                     v.span(),
-                    format!("[render] {key} = {}: absurd resolution (width and height must be 1..={MAX_RESOLUTION})", v.get_ref()),
+                    format!(
+                        "[render] {key} = {}: absurd resolution (width and height must be 1..={MAX_RESOLUTION})",
+                        v.get_ref()
+                    ),
                 ));
             }
         }

@@ -25,11 +25,7 @@ pub(super) struct GltfDoc {
 }
 
 /// Parses a `.gltf` or `.glb` file's bytes and loads its buffers (relative to `src.path`).
-pub(super) fn read_gltf(
-    src: &Src,
-    bytes: &[u8],
-    warnings: &mut Vec<String>,
-) -> Result<GltfDoc, SceneError> {
+pub(super) fn read_gltf(src: &Src, bytes: &[u8], warnings: &mut Vec<String>) -> Result<GltfDoc, SceneError> {
     if bytes.is_empty() {
         return Err(src.err("empty file (expected glTF JSON or a binary .glb)"));
     }
@@ -38,8 +34,8 @@ pub(super) fn read_gltf(
     } else {
         (bytes, None)
     };
-    let root: json::Root = json::deserialize::from_slice(json_bytes)
-        .map_err(|e| src.err(format!("malformed glTF JSON: {e}")))?;
+    let root: json::Root =
+        json::deserialize::from_slice(json_bytes).map_err(|e| src.err(format!("malformed glTF JSON: {e}")))?;
 
     if !root.asset.version.starts_with("2.") {
         return Err(src.err(format!(
@@ -68,11 +64,7 @@ pub(super) fn read_gltf(
     let root = match gltf::Document::from_json(root) {
         Ok(doc) => doc.into_json(),
         Err(gltf::Error::Validation(errors)) => {
-            let list: Vec<String> = errors
-                .iter()
-                .take(8)
-                .map(|(path, e)| format!("{path}: {e}"))
-                .collect();
+            let list: Vec<String> = errors.iter().take(8).map(|(path, e)| format!("{path}: {e}")).collect();
             let more = if errors.len() > 8 {
                 format!(" (and {} more)", errors.len() - 8)
             } else {
@@ -94,24 +86,20 @@ pub(super) fn read_gltf(
             None => match (i, bin.take()) {
                 (0, Some(bin)) => (bin.to_vec(), "the GLB BIN chunk".to_string()),
                 _ => {
-                    return Err(src.err(format!(
-                        "{label} has no uri and there is no GLB BIN chunk for it"
-                    )));
+                    return Err(src.err(format!("{label} has no uri and there is no GLB BIN chunk for it")));
                 }
             },
-            Some(uri) if uri.starts_with("data:") => (
-                decode_data_uri(src, &label, uri)?,
-                "its data URI".to_string(),
-            ),
+            Some(uri) if uri.starts_with("data:") => (decode_data_uri(src, &label, uri)?, "its data URI".to_string()),
             Some(uri) => {
                 if uri.contains("://") {
-                    return Err(src.err(format!("{label}: remote uri '{uri}' is not supported (only relative file paths and data URIs)")));
+                    return Err(src.err(format!(
+                        "{label}: remote uri '{uri}' is not supported (only relative file paths and data URIs)"
+                    )));
                 }
                 let rel = percent_decode(uri);
                 let file = src.dir().join(&rel);
-                let data = std::fs::read(&file).map_err(|e| {
-                    src.err(format!("{label}: cannot read '{}': {e}", file.display()))
-                })?;
+                let data = std::fs::read(&file)
+                    .map_err(|e| src.err(format!("{label}: cannot read '{}': {e}", file.display())))?;
                 (data, format!("'{rel}'"))
             }
         };
@@ -129,9 +117,7 @@ pub(super) fn read_gltf(
 
 /// Splits a GLB container into its JSON chunk and optional BIN chunk.
 fn parse_glb<'a>(src: &Src, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>), SceneError> {
-    let word = |at: usize| -> Option<u32> {
-        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
-    };
+    let word = |at: usize| -> Option<u32> { Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?)) };
     let (Some(version), Some(length)) = (word(4), word(8)) else {
         return Err(src.err(format!(
             "truncated GLB: {} bytes, shorter than the 12-byte header",
@@ -139,9 +125,7 @@ fn parse_glb<'a>(src: &Src, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
         )));
     };
     if version != 2 {
-        return Err(src.err(format!(
-            "GLB container version {version} is not supported (expected 2)"
-        )));
+        return Err(src.err(format!("GLB container version {version} is not supported (expected 2)")));
     }
     let length = length as usize;
     if length > bytes.len() {
@@ -157,9 +141,7 @@ fn parse_glb<'a>(src: &Src, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
     let mut chunk = 0;
     while at < bytes.len() {
         let (Some(len), Some(kind)) = (word(at), word(at + 4)) else {
-            return Err(src.err(format!(
-                "truncated GLB: chunk {chunk} header at byte {at} is cut off"
-            )));
+            return Err(src.err(format!("truncated GLB: chunk {chunk} header at byte {at} is cut off")));
         };
         let start = at + 8;
         let end = start
@@ -250,7 +232,6 @@ fn component_name(c: ComponentType) -> &'static str {
 }
 
 impl GltfDoc {
-    #[allow(clippy::too_many_arguments)]
     /// Bytes `[offset, offset + stride*(count-1) + elem)` of buffer view `view`, checked against
     /// the view and the buffer; returns (view bytes from offset, stride).
     fn view_range(
@@ -288,7 +269,9 @@ impl GltfDoc {
             _ => elem,
         };
         if stride < elem {
-            return Err(src.err(format!("{what}: bufferView {view} byteStride {stride} is smaller than an element ({elem} bytes)")));
+            return Err(src.err(format!(
+                "{what}: bufferView {view} byteStride {stride} is smaller than an element ({elem} bytes)"
+            )));
         }
         let need = if count == 0 {
             0
@@ -348,9 +331,7 @@ impl GltfDoc {
         let elem = comps * component_size(ct);
         let count = a.count.0;
         if count > (1u64 << 31) {
-            return Err(src.err(format!(
-                "{what}: accessor {index} count {count} is absurdly large"
-            )));
+            return Err(src.err(format!("{what}: accessor {index} count {count} is absurdly large")));
         }
         let what_acc = format!("{what}: accessor {index}");
         // Check the data exists before allocating: a view-backed accessor is then bounded by
@@ -381,9 +362,7 @@ impl GltfDoc {
                 )));
             }
             let Checked::Valid(ict) = &sparse.indices.component_type else {
-                return Err(src.err(format!(
-                    "{what_acc}: sparse indices have an invalid component type"
-                )));
+                return Err(src.err(format!("{what_acc}: sparse indices have an invalid component type")));
             };
             let isz = component_size(ict.0);
             let (idata, _) = self.view_range(
@@ -411,41 +390,25 @@ impl GltfDoc {
                         "{what_acc}: sparse index {target} out of range ({count} elements)"
                     )));
                 }
-                out[target * elem..(target + 1) * elem]
-                    .copy_from_slice(&vdata[k * elem..(k + 1) * elem]);
+                out[target * elem..(target + 1) * elem].copy_from_slice(&vdata[k * elem..(k + 1) * elem]);
             }
         }
         Ok((ct, out, count as usize))
     }
 
     /// A `VEC3` `FLOAT` accessor (positions, normals).
-    pub fn read_vec3(
-        &self,
-        src: &Src,
-        what: &str,
-        index: usize,
-    ) -> Result<Vec<[f32; 3]>, SceneError> {
-        let (_, bytes, count) =
-            self.accessor_bytes(src, what, index, Type::Vec3, &[ComponentType::F32])?;
+    pub fn read_vec3(&self, src: &Src, what: &str, index: usize) -> Result<Vec<[f32; 3]>, SceneError> {
+        let (_, bytes, count) = self.accessor_bytes(src, what, index, Type::Vec3, &[ComponentType::F32])?;
         let f = |i: usize| f32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().unwrap());
-        Ok((0..count)
-            .map(|i| [f(3 * i), f(3 * i + 1), f(3 * i + 2)])
-            .collect())
+        Ok((0..count).map(|i| [f(3 * i), f(3 * i + 1), f(3 * i + 2)]).collect())
     }
 
     /// A `SCALAR` accessor of unsigned byte/short/int (indices).
-    pub fn read_indices(
-        &self,
-        src: &Src,
-        what: &str,
-        index: usize,
-    ) -> Result<Vec<u32>, SceneError> {
+    pub fn read_indices(&self, src: &Src, what: &str, index: usize) -> Result<Vec<u32>, SceneError> {
         let allowed = [ComponentType::U8, ComponentType::U16, ComponentType::U32];
         let (ct, bytes, count) = self.accessor_bytes(src, what, index, Type::Scalar, &allowed)?;
         let sz = component_size(ct);
-        Ok((0..count)
-            .map(|i| read_uint(ct, &bytes[i * sz..]))
-            .collect())
+        Ok((0..count).map(|i| read_uint(ct, &bytes[i * sz..])).collect())
     }
 }
 
@@ -459,8 +422,6 @@ fn read_uint(ct: ComponentType, b: &[u8]) -> u32 {
 
 /// The file name of a path, for short messages.
 pub(super) fn file_name(path: &Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
+    path.file_name()
+        .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
 }

@@ -94,9 +94,7 @@ pub(super) fn plan_media(
             Some(g) => {
                 let v = *g.get_ref();
                 if !(v > -1.0 && v < 1.0) {
-                    return Err(
-                        t.err_at(g.span(), format!("{head}: g = {v} must satisfy -1 < g < 1"))
-                    );
+                    return Err(t.err_at(g.span(), format!("{head}: g = {v} must satisfy -1 < g < 1")));
                 }
                 v
             }
@@ -187,10 +185,7 @@ pub(super) fn plan_media(
                 let bytes = std::fs::read(&file).map_err(|e| {
                     t.err_at(
                         d.grid.span(),
-                        format!(
-                            "{head}: density grid '{}' cannot be read: {e}",
-                            file.display()
-                        ),
+                        format!("{head}: density grid '{}' cannot be read: {e}", file.display()),
                     )
                 })?;
                 let (res, values) = parse_grid(&bytes).map_err(|e| {
@@ -210,7 +205,10 @@ pub(super) fn plan_media(
                         if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
                             return Err(t.err_at(
                                 b.span(),
-                                format!("{head}: density bounds {:?} must be finite with min < max on every axis", b.get_ref()),
+                                format!(
+                                    "{head}: density bounds {:?} must be finite with min < max on every axis",
+                                    b.get_ref()
+                                ),
                             ));
                         }
                         Some((lo, hi))
@@ -242,10 +240,7 @@ pub(super) fn plan_media(
 
 /// Checks that an instance is a closed, consistently oriented manifold; `Err` says why not.
 fn check_closed(raw: &[[Vec3; 3]]) -> Result<(), String> {
-    let key = |p: Vec3| {
-        p.to_array()
-            .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
-    };
+    let key = |p: Vec3| p.to_array().map(|c| if c == 0.0 { 0u32 } else { c.to_bits() });
     let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
     let mut pos: Vec<Vec3> = Vec::new();
     let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
@@ -384,18 +379,12 @@ pub(super) fn finish_media(
     let Some(t) = t else {
         return Ok((Vec::new(), None));
     };
-    let global = plan
-        .media
-        .iter()
-        .position(|m| m.mesh.is_none())
-        .map(|i| i as u32);
+    let global = plan.media.iter().position(|m| m.mesh.is_none()).map(|i| i as u32);
     let mut volumes = Vec::with_capacity(geo.regions.len());
     for r in geo.regions.iter_mut() {
         let pm = &plan.media[r.medium];
         let head = format!("[[media]] '{}'", pm.medium.name);
-        let what = if root.meshes[r.mesh].name.is_some()
-            && root.nodes[r.node].name == root.meshes[r.mesh].name
-        {
+        let what = if root.meshes[r.mesh].name.is_some() && root.nodes[r.node].name == root.meshes[r.mesh].name {
             mesh_label(root, r.mesh)
         } else {
             format!(

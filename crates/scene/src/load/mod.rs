@@ -107,7 +107,6 @@
 //!   `KHR_materials_emissive_strength`, `KHR_materials_transmission` and `KHR_materials_ior`
 //!   is an error.
 // `!(x > y)` is deliberate throughout: it is also true for NaN, which must be rejected.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::{Scene, SceneError};
 use std::ops::Range;
@@ -132,14 +131,14 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         .unwrap_or_default();
     match ext.as_str() {
         "toml" => {
-            let text = String::from_utf8(bytes)
-                .map_err(|e| SceneError::invalid(path, format!("not UTF-8 text: {e}")))?;
+            let text =
+                String::from_utf8(bytes).map_err(|e| SceneError::invalid(path, format!("not UTF-8 text: {e}")))?;
             let toml = TomlSrc {
                 src: Src::new(path),
                 text,
             };
-            let sidecar: sidecar::Sidecar = toml::from_str(&toml.text)
-                .map_err(|e| toml.src.err(e.to_string().trim_end().to_string()))?;
+            let sidecar: sidecar::Sidecar =
+                toml::from_str(&toml.text).map_err(|e| toml.src.err(e.to_string().trim_end().to_string()))?;
             let gltf_path = toml.src.dir().join(sidecar.gltf.get_ref());
             let gltf_bytes = std::fs::read(&gltf_path).map_err(|e| {
                 toml.err_at(
@@ -151,12 +150,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
                     ),
                 )
             })?;
-            build::build_scene(
-                Src::new(&gltf_path),
-                &gltf_bytes,
-                Some((&toml, &sidecar)),
-                path,
-            )
+            build::build_scene(Src::new(&gltf_path), &gltf_bytes, Some((&toml, &sidecar)), path)
         }
         "gltf" | "glb" => build::build_scene(Src::new(path), &bytes, None, path),
         _ => Err(SceneError::invalid(

@@ -93,10 +93,7 @@ impl<'de> Deserialize<'de> for Rgb3 {
                     n += 1;
                 }
                 if n != 3 {
-                    return Err(de::Error::invalid_length(
-                        n,
-                        &"an RGB triple of exactly 3 numbers",
-                    ));
+                    return Err(de::Error::invalid_length(n, &"an RGB triple of exactly 3 numbers"));
                 }
                 Ok(Rgb3(out))
             }
@@ -110,13 +107,7 @@ pub(super) fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
     let before = &text.as_bytes()[..offset];
     let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
-    let line_start = before
-        .iter()
-        .rposition(|&b| b == b'\n')
-        .map_or(0, |i| i + 1);
-    let col = String::from_utf8_lossy(&before[line_start..])
-        .chars()
-        .count()
-        + 1;
+    let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let col = String::from_utf8_lossy(&before[line_start..]).chars().count() + 1;
     (line, col)
 }

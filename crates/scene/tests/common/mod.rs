@@ -130,9 +130,7 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], alpha: f64) -> Result<Chi2R
         let (o, e) = (observed[i], expected[i]);
         assert!(e >= 0.0 && e.is_finite(), "cell {i}: expected count {e}");
         if e == 0.0 && o > 0.0 {
-            return Err(format!(
-                "{o} samples in cell {i}, whose expected count is 0"
-            ));
+            return Err(format!("{o} samples in cell {i}, whose expected count is 0"));
         }
         if e < MIN_EXPECTED || (pooled_exp > 0.0 && pooled_exp < MIN_EXPECTED) {
             pooled_obs += o;
@@ -147,9 +145,7 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], alpha: f64) -> Result<Chi2R
         stat += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
         dof += 1;
     } else if pooled_obs > 0.0 {
-        return Err(format!(
-            "{pooled_obs} samples in cells whose expected count is 0"
-        ));
+        return Err(format!("{pooled_obs} samples in cells whose expected count is 0"));
     }
     // The total is fixed, so one cell is determined by the others.
     let dof = dof.saturating_sub(1);
@@ -173,12 +169,7 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], alpha: f64) -> Result<Chi2R
         let cells: Vec<String> = worst
             .iter()
             .take(5)
-            .map(|&i| {
-                format!(
-                    "cell {i}: observed {} expected {:.1}",
-                    observed[i], expected[i]
-                )
-            })
+            .map(|&i| format!("cell {i}: observed {} expected {:.1}", observed[i], expected[i]))
             .collect();
         return Err(format!(
             "rejected: χ² = {stat:.1} with {dof} dof, p = {p_value:.3e} < α = {alpha:.3e}; worst: {}",
@@ -233,14 +224,7 @@ pub fn adaptive(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, tol: Tol) -> f64 
     adaptive_rec(f, a, b, whole, tol.abs, tol)
 }
 
-fn adaptive_rec(
-    f: &mut dyn FnMut(f64) -> f64,
-    a: f64,
-    b: f64,
-    whole: f64,
-    eps: f64,
-    tol: Tol,
-) -> f64 {
+fn adaptive_rec(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, whole: f64, eps: f64, tol: Tol) -> f64 {
     let m = 0.5 * (a + b);
     let (left, right) = (gauss_legendre(f, a, m), gauss_legendre(f, m, b));
     let sum = left + right;
@@ -361,8 +345,7 @@ impl SphereGrid {
     pub fn direction(&self, t: f64, phi: f64) -> (DVec3, f64) {
         let theta = PI * t.powf(self.p);
         let (st, ct) = theta.sin_cos();
-        let d =
-            self.frame.s * (st * phi.cos()) + self.frame.t * (st * phi.sin()) + self.frame.n * ct;
+        let d = self.frame.s * (st * phi.cos()) + self.frame.t * (st * phi.sin()) + self.frame.n * ct;
         let dtheta_dt = if self.p == 1.0 {
             PI
         } else {
@@ -374,18 +357,10 @@ impl SphereGrid {
     /// The cell a direction falls into (atan2, not acos, so small angles resolve).
     pub fn cell(&self, d: Vec3) -> usize {
         let d = d.as_dvec3();
-        let (x, y, z) = (
-            d.dot(self.frame.s),
-            d.dot(self.frame.t),
-            d.dot(self.frame.n),
-        );
+        let (x, y, z) = (d.dot(self.frame.s), d.dot(self.frame.t), d.dot(self.frame.n));
         let theta = (x * x + y * y).sqrt().atan2(z);
         let t = (theta / PI).clamp(0.0, 1.0);
-        let t = if self.p == 1.0 {
-            t
-        } else {
-            t.powf(1.0 / self.p)
-        };
+        let t = if self.p == 1.0 { t } else { t.powf(1.0 / self.p) };
         let mut phi = y.atan2(x);
         if phi < 0.0 {
             phi += TAU;
@@ -420,15 +395,7 @@ impl SphereGrid {
     }
 
     /// ∫ f dω over the rectangle [t0, t1] × [φ0, φ1] of grid coordinates.
-    pub fn integrate_cell(
-        &self,
-        f: &dyn Fn(Vec3) -> f64,
-        t0: f64,
-        t1: f64,
-        phi0: f64,
-        phi1: f64,
-        eps: f64,
-    ) -> f64 {
+    pub fn integrate_cell(&self, f: &dyn Fn(Vec3) -> f64, t0: f64, t1: f64, phi0: f64, phi1: f64, eps: f64) -> f64 {
         // The inner integrals split at the declared jumps and resolve any other discontinuity
         // deeply, so that their residual error stays below the outer relative floor and does
         // not drive the outer recursion to its depth limit. A relative error of 1e-4 is
@@ -460,12 +427,7 @@ impl SphereGrid {
     /// ∫ f dω over the whole sphere with a fixed rule: about `t_panels` × `phi_panels` panels
     /// of 8 × 8 Gauss–Legendre nodes (choose the warp `p` so the panels resolve the lobe),
     /// with the t panels split at the declared jumps.
-    pub fn integrate_sphere(
-        &self,
-        f: &dyn Fn(Vec3) -> f64,
-        t_panels: usize,
-        phi_panels: usize,
-    ) -> f64 {
+    pub fn integrate_sphere(&self, f: &dyn Fn(Vec3) -> f64, t_panels: usize, phi_panels: usize) -> f64 {
         let mut outer = |phi: f64| {
             let mut edges = vec![0.0];
             edges.extend(self.crossings(phi, 0.0, 1.0));
