@@ -1,30 +1,54 @@
 //! Ray–triangle intersection and robust ray offsetting.
 use glam::{IVec3, Vec3};
 
-/// Möller–Trumbore intersection. Returns `(t, b1, b2)` with `t` in `(tmin, tmax)` and
-/// (b1, b2) the barycentric weights of vertices 1 and 2, or `None`.
+/// Watertight ray–triangle intersection (Woop, Benthin & Wald, JCGT 2013): a ray through a
+/// shared edge or vertex of a closed mesh hits at least one of the triangles, so rays cannot
+/// slip through the seams of a medium boundary. Returns `(t, b1, b2)` with `t` in `(tmin, tmax)`
+/// and (b1, b2) the barycentric weights of vertices 1 and 2, or `None`.
 #[inline]
 pub fn intersect_triangle(o: Vec3, d: Vec3, p: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
-    let e1 = p[1] - p[0];
-    let e2 = p[2] - p[0];
-    let pv = d.cross(e2);
-    let det = e1.dot(pv);
+    // Permute axes so that z is the ray direction's largest component (keeping handedness).
+    let ad = d.abs();
+    let kz = if ad.x > ad.y && ad.x > ad.z {
+        0
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    // Shear so the ray points along +z; then the test is 2-D in x, y.
+    let sx = d[kx] / d[kz];
+    let sy = d[ky] / d[kz];
+    let sz = 1.0 / d[kz];
+    let (a, b, c) = (p[0] - o, p[1] - o, p[2] - o);
+    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    // Exactly on an edge in f32: decide in f64 so neighbouring triangles agree.
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let e = |px: f32, py: f32, qx: f32, qy: f32| (px as f64 * qy as f64 - py as f64 * qx as f64) as f32;
+        u = e(cx, cy, bx, by);
+        v = e(ax, ay, cx, cy);
+        w = e(bx, by, ax, ay);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
     if det == 0.0 || !det.is_finite() {
         return None;
     }
+    let t_scaled = sz * (u * a[kz] + v * b[kz] + w * c[kz]);
     let inv = 1.0 / det;
-    let tv = o - p[0];
-    let b1 = tv.dot(pv) * inv;
-    if !(0.0..=1.0).contains(&b1) {
-        return None;
-    }
-    let qv = tv.cross(e1);
-    let b2 = d.dot(qv) * inv;
-    if b2 < 0.0 || b1 + b2 > 1.0 {
-        return None;
-    }
-    let t = e2.dot(qv) * inv;
-    (t > tmin && t < tmax).then_some((t, b1, b2))
+    let t = t_scaled * inv;
+    (t > tmin && t < tmax).then_some((t, v * inv, w * inv))
 }
 
 /// Moves `p` off a surface along `n` (the geometric normal, flipped to the side the new ray
@@ -70,6 +94,36 @@ mod tests {
         assert!(intersect_triangle(Vec3::new(0.75, 0.5, 1.0), -Vec3::Z, &tri, 0.0, f32::INFINITY).is_none());
         assert!(intersect_triangle(Vec3::new(0.25, 0.5, 1.0), Vec3::X, &tri, 0.0, f32::INFINITY).is_none());
         assert!(intersect_triangle(Vec3::new(0.25, 0.5, 1.0), -Vec3::Z, &tri, 0.0, 0.5).is_none());
+    }
+
+    /// Rays aimed exactly at the shared edge and the shared vertex of a fan of triangles must
+    /// hit one of them (the property that keeps closed medium boundaries closed).
+    #[test]
+    fn shared_edges_and_vertices_are_watertight() {
+        let c = Vec3::new(0.3, 0.2, 0.0);
+        let ring: Vec<Vec3> = (0..7)
+            .map(|i| {
+                let a = i as f32 / 7.0 * std::f32::consts::TAU;
+                c + Vec3::new(a.cos(), a.sin(), 0.0) * 0.77
+            })
+            .collect();
+        let tris: Vec<[Vec3; 3]> = (0..7).map(|i| [c, ring[i], ring[(i + 1) % 7]]).collect();
+        let mut s = beamlight_scene::rng::Sampler::new(5, 0, 0);
+        for k in 0..2000 {
+            // Target: the centre vertex, or a point on one of the shared edges.
+            let target = if k % 5 == 0 {
+                c
+            } else {
+                c + (ring[k % 7] - c) * s.next_1d()
+            };
+            let o = Vec3::new(s.next_1d() - 0.5, s.next_1d() - 0.5, 1.0 + s.next_1d()) * 3.0;
+            let d = (target - o).normalize();
+            let hits = tris
+                .iter()
+                .filter(|t| intersect_triangle(o, d, t, 0.0, f32::INFINITY).is_some())
+                .count();
+            assert!(hits >= 1, "ray {k} towards {target} slipped through");
+        }
     }
 
     #[test]
