@@ -527,3 +527,78 @@ fn furnace_with_glass_and_mirror_stays_at_two() {
     let frac = fraction_within(&film, 3.0, |_, _| [2.0; 3]);
     assert!(frac >= 0.98, "only {frac} of pixels within 3σ of 2");
 }
+
+/// The same scene scaled by `s` (media by 1/s) must give the same image: ray offsets and
+/// intersection tolerances must scale with the scene, not be fixed epsilons.
+#[test]
+fn scene_scale_does_not_change_the_image() {
+    use beamlight_scene::{bsdf::Bsdf, gltf_writer::shapes, scene::MediumInterface};
+    for scale in [1e-3f32, 1e4] {
+        let mut s = furnace(Rgb::splat(0.4), 0.2, None);
+        s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, 8, 8).camera;
+        let glass = add_material(
+            &mut s,
+            material(
+                "glass",
+                Some(Bsdf::Glass {
+                    ior: 1.5,
+                    tint: Rgb::ONE,
+                }),
+                Rgb::ZERO,
+                false,
+            ),
+        );
+        s.media.push(homogeneous(Rgb::new(2.0, 1.0, 3.0), Rgb::ZERO, -0.3));
+        add_mesh(
+            &mut s,
+            shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, 16, 32),
+            glass,
+            Some(MediumInterface {
+                inside: Some(1),
+                outside: Some(0),
+            }),
+        );
+        for t in &mut s.triangles {
+            t.p = t.p.map(|p| p * scale);
+        }
+        s.camera.to_world.w_axis = (s.camera.position() * scale).extend(1.0);
+        for m in &mut s.media {
+            m.sigma_s /= scale;
+            m.sigma_a /= scale;
+        }
+        let film = render_pt(s, 512, 14, None);
+        let mean = film.image().mean();
+        assert!(
+            (mean - Rgb::splat(2.0)).abs().max_element() < 0.03,
+            "scale {scale}: mean {mean}"
+        );
+    }
+}
+
+/// Extreme media (almost no extinction, extinction 10⁴ per unit, |g| = 0.999) never produce a
+/// NaN or Inf sample (`render_pt` asserts none was dropped), and thin media stay exact.
+#[test]
+fn extreme_media_stay_finite() {
+    for (sigma_s, g, exact) in [
+        (1e-6f32, 0.999f32, true),
+        (1e-6, -0.999, true),
+        (50.0, -0.999, false),
+        (1e4, 0.9, false),
+    ] {
+        let mut s = furnace(Rgb::new(sigma_s, sigma_s * 0.5, sigma_s), g, None);
+        s.render.width = 8;
+        s.render.height = 8;
+        let img = render_pt(s, 16, 15, None).image();
+        assert!(
+            img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0),
+            "σs {sigma_s} g {g}"
+        );
+        if exact {
+            let mean = img.mean();
+            assert!(
+                (mean - Rgb::splat(2.0)).abs().max_element() < 0.05,
+                "σs {sigma_s} g {g}: mean {mean}"
+            );
+        }
+    }
+}

@@ -121,9 +121,51 @@ fn ci() -> Result<()> {
     sync(&assets::files(), true)?;
     sync(&bad_scenes::files(), true)?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    run(Command::new(cargo)
-        .current_dir(root())
-        .args(["test", "--release", "--workspace"]))
+    run_tests(
+        Command::new(cargo)
+            .current_dir(root())
+            .args(["test", "--release", "--workspace", "--no-fail-fast"]),
+    )
+}
+
+/// Runs `cargo test`, passing its output through, and ends with one line totalling every test
+/// binary's results (cargo itself ends on whichever binary ran last, often a doc-test with none).
+fn run_tests(cmd: &mut Command) -> Result<()> {
+    use std::io::{BufRead, BufReader};
+    eprintln!("+ {cmd:?}");
+    let mut child = cmd
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .with_context(|| format!("running {cmd:?}"))?;
+    let (mut passed, mut failed) = (0u64, 0u64);
+    for line in BufReader::new(child.stdout.take().expect("piped stdout")).lines() {
+        let line = line?;
+        println!("{line}");
+        if let Some(rest) = line.strip_prefix("test result: ") {
+            passed += count_before(rest, " passed");
+            failed += count_before(rest, " failed");
+        }
+    }
+    let status = child.wait()?;
+    println!("tests: {passed} passed, {failed} failed");
+    if !status.success() {
+        bail!("{cmd:?} failed: {status}");
+    }
+    Ok(())
+}
+
+/// The number just before `label` in a cargo test summary ("ok. 12 passed; 0 failed; …").
+fn count_before(summary: &str, label: &str) -> u64 {
+    summary
+        .split(';')
+        .find_map(|part| {
+            part.trim()
+                .trim_start_matches("ok. ")
+                .trim_start_matches("FAILED. ")
+                .strip_suffix(label.trim_start())
+        })
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap_or(0)
 }
 
 #[cfg(test)]
@@ -140,6 +182,13 @@ mod tests {
                 "{rel} differs from the generator's output; run `cargo xtask assets` and `cargo xtask bad-scenes`"
             );
         }
+    }
+
+    #[test]
+    fn test_summaries_are_counted() {
+        let line = "ok. 12 passed; 3 failed; 0 ignored; 0 measured; 0 filtered out; finished in 0.1s";
+        assert_eq!((count_before(line, " passed"), count_before(line, " failed")), (12, 3));
+        assert_eq!(count_before("FAILED. 1 passed; 2 failed; 0 ignored", " failed"), 2);
     }
 
     #[test]

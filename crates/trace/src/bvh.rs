@@ -58,34 +58,49 @@ impl Bvh {
     /// Closest hit with `t` in `(0, tmax)` along `o + t·d` (`d` unit length).
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
-        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
+        let (ray, shift) = traversal_ray(o, d, tmax);
         let mut hit = obvhs::ray::RayHit::none();
-        let mut best = (0.0f32, 0.0f32);
+        let mut best = (0.0f32, 0.0f32, 0.0f32);
         let found = bvh.ray_traverse(ray, &mut hit, |r, k| {
-            match intersect_triangle(o, d, &self.positions[k], r.tmin, r.tmax) {
-                Some((t, b1, b2)) => {
-                    best = (b1, b2);
-                    t
+            // Intersect in our own (unshifted) frame; report obvhs's parameter, t + shift.
+            match intersect_triangle(o, d, &self.positions[k], 0.0, r.tmax - shift) {
+                // obvhs keeps the hit only if its parameter beats the current one; record the
+                // barycentrics under the same condition so they stay with the reported triangle.
+                Some(h) if h.0 + shift < r.tmax => {
+                    best = h;
+                    h.0 + shift
                 }
-                None => f32::INFINITY,
+                _ => f32::INFINITY,
             }
         });
         found.then(|| Hit {
-            t: hit.t,
+            t: best.0,
             tri: bvh.primitive_indices[hit.primitive_id as usize],
-            b1: best.0,
-            b2: best.1,
+            b1: best.1,
+            b2: best.2,
         })
     }
 
     /// True when anything lies on `o + t·d` for `t` in `(0, tmax)`.
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
-        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
-        !bvh.ray_traverse_miss(ray, |r, k| {
-            intersect_triangle(o, d, &self.positions[k], r.tmin, r.tmax).map_or(f32::INFINITY, |h| h.0)
+        let (ray, shift) = traversal_ray(o, d, tmax);
+        !bvh.ray_traverse_miss(ray, |_, k| {
+            intersect_triangle(o, d, &self.positions[k], 0.0, tmax).map_or(f32::INFINITY, |h| h.0 + shift)
         })
     }
+}
+
+/// obvhs's wide-node test ignores boxes the ray leaves before t = 1e-4 (an absolute epsilon),
+/// which loses nearby hits in small scenes. Starting the traversal ray a little behind the real
+/// origin moves every relevant box beyond that cut-off; the triangle tests still use the real
+/// origin, and parameters are shifted back. Returns the ray and the shift actually applied.
+fn traversal_ray(o: Vec3, d: Vec3, tmax: f32) -> (Ray, f32) {
+    const BACK: f32 = 4e-4;
+    let o_back = o - d * BACK;
+    // Rounding may make the real shift differ from BACK (or vanish for huge coordinates).
+    let shift = (o - o_back).dot(d).max(0.0);
+    (Ray::new(Vec3A::from(o_back), Vec3A::from(d), 0.0, tmax + shift), shift)
 }
 
 #[cfg(test)]
@@ -96,19 +111,30 @@ mod tests {
     /// The BVH must agree with brute force on random rays through a random triangle soup.
     #[test]
     fn agrees_with_brute_force() {
+        for scale in [1e-4f32, 1.0, 1e4] {
+            agrees_with_brute_force_at(scale);
+        }
+    }
+
+    fn agrees_with_brute_force_at(scale: f32) {
         let mut s = Sampler::new(1, 0, 0);
-        let mut rnd = || Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+        let mut rnd = || Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * scale;
         let tris: Vec<[Vec3; 3]> = (0..2000)
             .map(|_| {
                 let c = rnd() * 10.0;
-                [c + rnd() - 0.5, c + rnd() - 0.5, c + rnd() - 0.5]
+                let h = Vec3::splat(0.5 * scale);
+                [c + rnd() - h, c + rnd() - h, c + rnd() - h]
             })
             .collect();
         let bvh = Bvh::from_positions(tris.clone());
         for _ in 0..2000 {
-            let o = rnd() * 12.0 - 1.0;
-            let d = (rnd() - 0.5).normalize();
-            let tmax = if rnd().x < 0.5 { f32::INFINITY } else { 5.0 };
+            let o = rnd() * 12.0 - Vec3::splat(scale);
+            let d = (rnd() / scale - 0.5).normalize();
+            let tmax = if rnd().x < 0.5 * scale {
+                f32::INFINITY
+            } else {
+                5.0 * scale
+            };
             let brute = tris
                 .iter()
                 .enumerate()
@@ -120,7 +146,7 @@ mod tests {
                 assert_eq!(h.t, b.0);
                 let p = tris[h.tri as usize];
                 let q = p[0] * (1.0 - h.b1 - h.b2) + p[1] * h.b1 + p[2] * h.b2;
-                assert!((q - (o + d * h.t)).length() < 1e-3);
+                assert!((q - (o + d * h.t)).length() < 1e-3 * scale);
             }
             assert_eq!(bvh.occluded(o, d, tmax), brute.is_some());
         }

@@ -1,8 +1,8 @@
 //! A scene prepared for tracing: BVH, light sampler and the media the rays start in.
 use crate::{
     bvh::{Bvh, Hit},
-    geometry::{face_towards, offset_ray_origin},
-    lights::LightSampler,
+    geometry::{face_towards, interpolation_error, offset_ray_origin},
+    lights::{LightSample, LightSampler},
     media,
 };
 use beamlight_scene::{Rgb, Scene, bsdf::Material, rng::Sampler, scene::MediumId};
@@ -16,6 +16,8 @@ pub const MAX_CROSSINGS: u32 = 256;
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
     pub p: Vec3,
+    /// Per-axis bound on the rounding error of `p`.
+    pub p_error: Vec3,
     /// Unit geometric normal, on the glTF front side (counter-clockwise winding).
     pub ng: Vec3,
     /// Unit shading normal, flipped if needed to lie on the same side as `ng`.
@@ -32,6 +34,14 @@ pub struct TraceScene {
     pub camera_medium: MediumId,
     /// Whether any triangle is an invisible medium boundary (shadow rays must then walk hits).
     has_null_interfaces: bool,
+}
+
+impl SurfaceHit {
+    /// Origin for a new ray leaving this point in direction `w`.
+    #[inline]
+    pub fn spawn(&self, w: Vec3) -> Vec3 {
+        offset_ray_origin(self.p, self.p_error, face_towards(self.ng, w))
+    }
 }
 
 impl TraceScene {
@@ -65,6 +75,7 @@ impl TraceScene {
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
         SurfaceHit {
             p,
+            p_error: interpolation_error(&t.p, h.b1, h.b2),
             ng,
             ns,
             tri: h.tri,
@@ -92,7 +103,7 @@ impl TraceScene {
                     iface.outside
                 };
             }
-            o = offset_ray_origin(sh.p, face_towards(sh.ng, d));
+            o = sh.spawn(d);
         }
         self.scene.global_medium
     }
@@ -105,37 +116,19 @@ impl TraceScene {
         }
     }
 
-    /// Transmittance from `p` (a surface point if `n` is given) towards `wi` over distance `dist`
-    /// (∞ for directional lights) to a light point with normal `light_n`, starting in `medium`.
-    /// Zero when an opaque or refracting surface is in the way; invisible medium boundaries are
-    /// crossed and switch the medium.
-    pub fn shadow_transmittance(
-        &self,
-        p: Vec3,
-        n: Option<Vec3>,
-        wi: Vec3,
-        dist: f32,
-        light_n: Option<Vec3>,
-        mut medium: MediumId,
-        s: &mut Sampler,
-    ) -> Rgb {
-        let mut o = n.map_or(p, |n| offset_ray_origin(p, face_towards(n, wi)));
-        let target = if dist.is_finite() {
-            let q = p + wi * dist;
-            Some(light_n.map_or(q, |ln| offset_ray_origin(q, face_towards(ln, -wi))))
-        } else {
-            None
-        };
-        let (d, mut remaining) = match target {
-            Some(q) => {
-                let v = q - o;
-                let len = v.length();
-                if !(len > 0.0) {
-                    return Rgb::ZERO;
-                }
-                (v / len, len * (1.0 - 1e-4))
+    /// Transmittance along a shadow ray from `o` (already offset off its surface, if any) to
+    /// the light sample `ls`, starting in `medium`. Zero when an opaque or refracting surface is
+    /// in the way; invisible medium boundaries are crossed and switch the medium.
+    pub fn shadow_transmittance(&self, mut o: Vec3, ls: &LightSample, mut medium: MediumId, s: &mut Sampler) -> Rgb {
+        let (d, mut remaining) = if ls.dist.is_finite() {
+            let v = ls.target - o;
+            let len = v.length();
+            if !(len > 0.0) {
+                return Rgb::ZERO;
             }
-            None => (wi, f32::INFINITY),
+            (v / len, len)
+        } else {
+            (ls.wi, f32::INFINITY)
         };
         let mut tr = Rgb::ONE;
         for _ in 0..MAX_CROSSINGS {
@@ -159,7 +152,7 @@ impl TraceScene {
                     if let Some(iface) = tri.interface {
                         medium = iface.entered(sh.ng, d);
                     }
-                    let next = offset_ray_origin(sh.p, face_towards(sh.ng, d));
+                    let next = sh.spawn(d);
                     remaining -= (next - o).dot(d);
                     o = next;
                     if !(remaining > 0.0) {

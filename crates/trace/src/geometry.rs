@@ -1,5 +1,5 @@
 //! Ray–triangle intersection and robust ray offsetting.
-use glam::{IVec3, Vec3};
+use glam::Vec3;
 
 /// Watertight ray–triangle intersection (Woop, Benthin & Wald, JCGT 2013): a ray through a
 /// shared edge or vertex of a closed mesh hits at least one of the triangles, so rays cannot
@@ -45,35 +45,63 @@ pub fn intersect_triangle(o: Vec3, d: Vec3, p: &[Vec3; 3], tmin: f32, tmax: f32)
     if det == 0.0 || !det.is_finite() {
         return None;
     }
-    let t_scaled = sz * (u * a[kz] + v * b[kz] + w * c[kz]);
+    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
     let inv = 1.0 / det;
-    let t = t_scaled * inv;
-    (t > tmin && t < tmax).then_some((t, v * inv, w * inv))
+    let t = (u * az + v * bz + w * cz) * inv;
+    if !(t > tmin && t < tmax) {
+        return None;
+    }
+    // Reject hits closer than the rounding error of t itself (pbrt-v4 §6.8.6): a ray that
+    // starts on this very triangle must not find it again at a tiny positive distance.
+    let max_z = az.abs().max(bz.abs()).max(cz.abs());
+    let max_x = ax.abs().max(bx.abs()).max(cx.abs());
+    let max_y = ay.abs().max(by.abs()).max(cy.abs());
+    let delta_z = gamma(3) * max_z;
+    let delta_x = gamma(5) * (max_x + max_z);
+    let delta_y = gamma(5) * (max_y + max_z);
+    let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    let max_e = u.abs().max(v.abs()).max(w.abs());
+    let delta_t = 3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv.abs();
+    (t > delta_t).then_some((t, v * inv, w * inv))
 }
 
-/// Moves `p` off a surface along `n` (the geometric normal, flipped to the side the new ray
-/// leaves from) by a few ULPs of `p`'s own magnitude, so the offset scales with the distance
-/// from the origin instead of being a fixed epsilon.
-/// (Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems, ch. 6.)
+/// γ(n) = n·u / (1 − n·u), u = 2⁻²⁴: the relative error bound of n chained f32 operations.
 #[inline]
-pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let of_i = IVec3::new(
-        (INT_SCALE * n.x) as i32,
-        (INT_SCALE * n.y) as i32,
-        (INT_SCALE * n.z) as i32,
-    );
-    let step = |p: f32, o: i32, n: f32| -> f32 {
-        if p.abs() < ORIGIN {
-            p + FLOAT_SCALE * n
+const fn gamma(n: u32) -> f32 {
+    let e = n as f32 * (f32::EPSILON * 0.5);
+    e / (1.0 - e)
+}
+
+/// Relative rounding error allowed for a point interpolated from triangle vertices. The exact
+/// bound for b0·p0 + b1·p1 + b2·p2 is γ₇ ≈ 7·2⁻²⁴ of Σ|bᵢ pᵢ| (pbrt-v4 §6.8); intersection and
+/// the subtraction o − p in the next ray test add a few more ulps, so we keep a 5× margin.
+const INTERPOLATION_ERROR: f32 = 32.0 * f32::EPSILON * 0.5;
+
+/// Per-axis bound on the floating-point error of the point with barycentrics (b1, b2) on `tri`.
+/// It scales with the vertices' magnitudes, so it is right for scenes of any size and position.
+#[inline]
+pub fn interpolation_error(tri: &[Vec3; 3], b1: f32, b2: f32) -> Vec3 {
+    ((tri[0] * (1.0 - b1 - b2)).abs() + (tri[1] * b1).abs() + (tri[2] * b2).abs()) * INTERPOLATION_ERROR
+}
+
+/// Moves the surface point `p` (with per-axis error bound `p_error`) along `n` — the geometric
+/// normal already flipped to the side the new ray leaves from — just far enough that the
+/// rounding error cannot put it back on the other side, then one ulp further per axis.
+#[inline]
+pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3) -> Vec3 {
+    let d = n.abs().dot(p_error);
+    let offset = n * d;
+    let po = p + offset;
+    let away = |x: f32, o: f32| {
+        if o > 0.0 {
+            x.next_up()
+        } else if o < 0.0 {
+            x.next_down()
         } else {
-            let o = if p < 0.0 { -o } else { o };
-            f32::from_bits((p.to_bits() as i32).wrapping_add(o) as u32)
+            x
         }
     };
-    Vec3::new(step(p.x, of_i.x, n.x), step(p.y, of_i.y, n.y), step(p.z, of_i.z, n.z))
+    Vec3::new(away(po.x, offset.x), away(po.y, offset.y), away(po.z, offset.z))
 }
 
 /// Geometric normal `ng` flipped to the side of direction `w`.
@@ -128,7 +156,7 @@ mod tests {
 
     #[test]
     fn offset_leaves_the_surface_at_any_scale() {
-        for scale in [1e-3f32, 1.0, 1e3, 1e5] {
+        for scale in [1e-6f32, 1e-3, 1.0, 1e3, 1e5] {
             let tri = [
                 Vec3::new(0.3, 0.1, 0.7) * scale,
                 Vec3::new(1.1, 0.2, 0.9) * scale,
@@ -136,7 +164,8 @@ mod tests {
             ];
             let ng = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
             let p = tri[0] * 0.3 + tri[1] * 0.3 + tri[2] * 0.4;
-            let o = offset_ray_origin(p, ng);
+            let err = interpolation_error(&tri, 0.3, 0.4);
+            let o = offset_ray_origin(p, err, ng);
             // Leaving along the normal's side must not hit the triangle itself.
             let d = (ng + Vec3::new(0.3, -0.2, 0.1)).normalize();
             let d = face_towards(d, ng);
@@ -145,8 +174,8 @@ mod tests {
                 "scale {scale}"
             );
             // Going back must hit it, very close.
-            let back = offset_ray_origin(p, -ng);
-            assert!((back - p).length() <= 1e-4 * scale.max(1.0));
+            // The offset is tiny compared with the scene.
+            assert!((o - p).length() <= 1e-5 * scale);
             assert!(intersect_triangle(o, -d, &tri, 0.0, f32::INFINITY).is_some());
         }
     }

@@ -1,5 +1,6 @@
 //! Light selection and sampling for next-event estimation: emissive triangles and punctual
 //! lights, chosen in proportion to their power.
+use crate::geometry::{face_towards, interpolation_error, offset_ray_origin};
 use beamlight_scene::{Rgb, Scene, light::PunctualLight, luminance_mean, rng::Sampler, sampling};
 use glam::Vec3;
 
@@ -20,6 +21,9 @@ pub struct LightSample {
     pub wi: Vec3,
     /// Distance to `p` (∞ for directional lights).
     pub dist: f32,
+    /// Where a shadow ray should end: `p` moved off the emitting surface towards the reference
+    /// point (so the light's own triangle does not occlude it), or the punctual light's position.
+    pub target: Vec3,
     /// Incident radiance divided by the solid-angle pdf (for delta lights: intensity / d² / pmf),
     /// unoccluded and without transmittance.
     pub contribution: Rgb,
@@ -104,11 +108,13 @@ impl LightSampler {
                 if !(pdf.is_finite() && pdf > 0.0) {
                     return None;
                 }
+                let target = offset_ray_origin(q, interpolation_error(&t.p, b.x, b.y), face_towards(n, -wi));
                 Some(LightSample {
                     p: q,
                     n: Some(n),
                     wi,
                     dist,
+                    target,
                     contribution: m.emission / pdf,
                     pdf,
                 })
@@ -121,6 +127,7 @@ impl LightSampler {
                         n: None,
                         wi: -*direction,
                         dist: f32::INFINITY,
+                        target: p,
                         contribution: *irradiance / pmf,
                         pdf: 0.0,
                     }),
@@ -139,6 +146,7 @@ impl LightSampler {
                             n: None,
                             wi,
                             dist,
+                            target: q,
                             contribution,
                             pdf: 0.0,
                         })

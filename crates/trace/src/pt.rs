@@ -3,7 +3,6 @@
 //! It is the ground truth every other estimator is measured against.
 use crate::{
     context::{MAX_CROSSINGS, TraceScene},
-    geometry::{face_towards, offset_ray_origin},
     media::{self, MediumEvent},
 };
 use beamlight_scene::{
@@ -90,7 +89,7 @@ pub fn radiance(
                     if let Some(ls) = ts.lights.sample(scene, p, s) {
                         let f = phase.eval(wo, ls.wi);
                         if f > 0.0 {
-                            let tr = ts.shadow_transmittance(p, None, ls.wi, ls.dist, ls.n, medium, s);
+                            let tr = ts.shadow_transmittance(p, &ls, medium, s);
                             let w = if ls.pdf > 0.0 {
                                 power_heuristic(ls.pdf, phase.pdf(wo, ls.wi))
                             } else {
@@ -142,7 +141,7 @@ pub fn radiance(
             if crossings > MAX_CROSSINGS {
                 break;
             }
-            o = offset_ray_origin(sh.p, face_towards(sh.ng, d));
+            o = sh.spawn(d);
             continue;
         };
 
@@ -164,7 +163,7 @@ pub fn radiance(
             let wi_local = frame.to_local(ls.wi);
             let f = bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
             if (same_side || transmissive) && f != Rgb::ZERO {
-                let tr = ts.shadow_transmittance(sh.p, Some(sh.ng), ls.wi, ls.dist, ls.n, medium, s);
+                let tr = ts.shadow_transmittance(sh.spawn(ls.wi), &ls, medium, s);
                 let w = if ls.pdf > 0.0 {
                     power_heuristic(ls.pdf, bsdf.pdf(wo_local, wi_local))
                 } else {
@@ -190,7 +189,7 @@ pub fn radiance(
         if let Some(iface) = tri.interface {
             medium = iface.entered(sh.ng, wi);
         }
-        o = offset_ray_origin(sh.p, face_towards(sh.ng, wi));
+        o = sh.spawn(wi);
         d = wi;
         if !russian_roulette(&mut beta, depth, settings.rr_depth, s) {
             break;
