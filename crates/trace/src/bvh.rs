@@ -1,5 +1,5 @@
 //! The scene's BVH (an obvhs compressed wide BVH8) and ray queries against it.
-use crate::geometry::intersect_triangle;
+use crate::geometry::TriangleRay;
 use beamlight_scene::Scene;
 use glam::{Vec3, Vec3A};
 use obvhs::{BvhBuildParams, cwbvh::CwBvh, ray::Ray, triangle::Triangle as ObvhsTriangle};
@@ -59,11 +59,12 @@ impl Bvh {
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let (ray, shift) = traversal_ray(o, d, tmax);
+        let tri_ray = TriangleRay::new(o, d);
         let mut hit = obvhs::ray::RayHit::none();
         let mut best = (0.0f32, 0.0f32, 0.0f32);
         let found = bvh.ray_traverse(ray, &mut hit, |r, k| {
             // Intersect in our own (unshifted) frame; report obvhs's parameter, t + shift.
-            match intersect_triangle(o, d, &self.positions[k], 0.0, r.tmax - shift) {
+            match tri_ray.intersect(&self.positions[k], 0.0, r.tmax - shift) {
                 // obvhs keeps the hit only if its parameter beats the current one; record the
                 // barycentrics under the same condition so they stay with the reported triangle.
                 Some(h) if h.0 + shift < r.tmax => {
@@ -85,8 +86,11 @@ impl Bvh {
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let (ray, shift) = traversal_ray(o, d, tmax);
+        let tri_ray = TriangleRay::new(o, d);
         !bvh.ray_traverse_miss(ray, |_, k| {
-            intersect_triangle(o, d, &self.positions[k], 0.0, tmax).map_or(f32::INFINITY, |h| h.0 + shift)
+            tri_ray
+                .intersect(&self.positions[k], 0.0, tmax)
+                .map_or(f32::INFINITY, |h| h.0 + shift)
         })
     }
 }
@@ -106,6 +110,7 @@ fn traversal_ray(o: Vec3, d: Vec3, tmax: f32) -> (Ray, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::intersect_triangle;
     use beamlight_scene::rng::Sampler;
 
     /// The BVH must agree with brute force on random rays through a random triangle soup.

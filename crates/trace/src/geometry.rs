@@ -7,62 +7,101 @@ use glam::Vec3;
 /// and (b1, b2) the barycentric weights of vertices 1 and 2, or `None`.
 #[inline]
 pub fn intersect_triangle(o: Vec3, d: Vec3, p: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
-    // Permute axes so that z is the ray direction's largest component (keeping handedness).
-    let ad = d.abs();
-    let kz = if ad.x > ad.y && ad.x > ad.z {
-        0
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
-    if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
+    TriangleRay::new(o, d).intersect(p, tmin, tmax)
+}
+
+/// A ray prepared for [`intersect_triangle`]: the per-ray axis permutation and shear are
+/// computed once and reused for every triangle the traversal visits.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleRay {
+    o: Vec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl TriangleRay {
+    #[inline]
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        // Permute axes so that z is the direction's largest component (keeping handedness),
+        // then shear so the ray points along +z and the test becomes 2-D in x, y.
+        let ad = d.abs();
+        let kz = if ad.x > ad.y && ad.x > ad.z {
+            0
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Self {
+            o,
+            kx,
+            ky,
+            kz,
+            sx: d[kx] / d[kz],
+            sy: d[ky] / d[kz],
+            sz: 1.0 / d[kz],
+        }
     }
-    // Shear so the ray points along +z; then the test is 2-D in x, y.
-    let sx = d[kx] / d[kz];
-    let sy = d[ky] / d[kz];
-    let sz = 1.0 / d[kz];
-    let (a, b, c) = (p[0] - o, p[1] - o, p[2] - o);
-    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
-    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
-    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
-    let mut u = cx * by - cy * bx;
-    let mut v = ax * cy - ay * cx;
-    let mut w = bx * ay - by * ax;
-    // Exactly on an edge in f32: decide in f64 so neighbouring triangles agree.
-    if u == 0.0 || v == 0.0 || w == 0.0 {
-        let e = |px: f32, py: f32, qx: f32, qy: f32| (px as f64 * qy as f64 - py as f64 * qx as f64) as f32;
-        u = e(cx, cy, bx, by);
-        v = e(ax, ay, cx, cy);
-        w = e(bx, by, ax, ay);
+
+    #[inline]
+    pub fn intersect(&self, p: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+        let Self {
+            o,
+            kx,
+            ky,
+            kz,
+            sx,
+            sy,
+            sz,
+        } = *self;
+        let (a, b, c) = (p[0] - o, p[1] - o, p[2] - o);
+        let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+        let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+        let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        // Exactly on an edge in f32: decide in f64 so neighbouring triangles agree.
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            let e = |px: f32, py: f32, qx: f32, qy: f32| (px as f64 * qy as f64 - py as f64 * qx as f64) as f32;
+            u = e(cx, cy, bx, by);
+            v = e(ax, ay, cx, cy);
+            w = e(bx, by, ax, ay);
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+        let inv = 1.0 / det;
+        let t = (u * az + v * bz + w * cz) * inv;
+        if !(t > tmin && t < tmax) {
+            return None;
+        }
+        // Reject hits closer than the rounding error of t itself (pbrt-v4 §6.8.6): a ray that
+        // starts on this very triangle must not find it again at a tiny positive distance.
+        let max_z = az.abs().max(bz.abs()).max(cz.abs());
+        let max_x = ax.abs().max(bx.abs()).max(cx.abs());
+        let max_y = ay.abs().max(by.abs()).max(cy.abs());
+        let delta_z = gamma(3) * max_z;
+        let delta_x = gamma(5) * (max_x + max_z);
+        let delta_y = gamma(5) * (max_y + max_z);
+        let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let max_e = u.abs().max(v.abs()).max(w.abs());
+        let delta_t = 3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv.abs();
+        (t > delta_t).then_some((t, v * inv, w * inv))
     }
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return None;
-    }
-    let det = u + v + w;
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
-    let inv = 1.0 / det;
-    let t = (u * az + v * bz + w * cz) * inv;
-    if !(t > tmin && t < tmax) {
-        return None;
-    }
-    // Reject hits closer than the rounding error of t itself (pbrt-v4 §6.8.6): a ray that
-    // starts on this very triangle must not find it again at a tiny positive distance.
-    let max_z = az.abs().max(bz.abs()).max(cz.abs());
-    let max_x = ax.abs().max(bx.abs()).max(cx.abs());
-    let max_y = ay.abs().max(by.abs()).max(cy.abs());
-    let delta_z = gamma(3) * max_z;
-    let delta_x = gamma(5) * (max_x + max_z);
-    let delta_y = gamma(5) * (max_y + max_z);
-    let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
-    let max_e = u.abs().max(v.abs()).max(w.abs());
-    let delta_t = 3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv.abs();
-    (t > delta_t).then_some((t, v * inv, w * inv))
 }
 
 /// γ(n) = n·u / (1 − n·u), u = 2⁻²⁴: the relative error bound of n chained f32 operations.
