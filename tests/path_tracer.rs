@@ -480,15 +480,14 @@ fn bounded_media_switch_at_invisible_boundaries() {
     });
 }
 
-/// Lossless specular objects keep the furnace at 2: a glass sphere (ior 1.5) filled with a
-/// scattering medium, and a perfect mirror cube, in a box of scattering fog. Checks refraction,
-/// the 1/η² radiance scaling, media switching at refracting boundaries, and MIS across delta
-/// vertices (shadow rays cannot see through glass).
-#[test]
-fn furnace_with_glass_and_mirror_stays_at_two() {
+/// The furnace with lossless specular objects: a glass sphere (ior 1.5) filled with a chromatic
+/// scattering medium and, optionally, a perfect mirror cube.
+fn glass_furnace(size: u32, sphere_segments: u32, mirror: bool) -> beamlight_scene::Scene {
     use beamlight_scene::{bsdf::Bsdf, gltf_writer::shapes, scene::MediumInterface};
     let mut s = furnace(Rgb::splat(0.4), 0.2, None);
-    s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, 12, 12).camera;
+    s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, size, size).camera;
+    s.render.width = size;
+    s.render.height = size;
     let glass = add_material(
         &mut s,
         material(
@@ -501,27 +500,38 @@ fn furnace_with_glass_and_mirror_stays_at_two() {
             false,
         ),
     );
-    let mirror = add_material(
-        &mut s,
-        material("mirror", Some(Bsdf::Mirror { reflectance: Rgb::ONE }), Rgb::ZERO, false),
-    );
     s.media.push(homogeneous(Rgb::new(2.0, 1.0, 3.0), Rgb::ZERO, -0.3));
+    let sphere = shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, sphere_segments / 2, sphere_segments);
     add_mesh(
         &mut s,
-        shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, 24, 48),
+        sphere,
         glass,
         Some(MediumInterface {
             inside: Some(1),
             outside: Some(0),
         }),
     );
-    add_mesh(
-        &mut s,
-        shapes::cuboid(Vec3::new(0.2, -0.6, -0.8), Vec3::new(0.7, -0.1, -0.3), true),
-        mirror,
-        None,
-    );
-    let film = render_pt(s, 1024, 13, None);
+    if mirror {
+        let m = add_material(
+            &mut s,
+            material("mirror", Some(Bsdf::Mirror { reflectance: Rgb::ONE }), Rgb::ZERO, false),
+        );
+        add_mesh(
+            &mut s,
+            shapes::cuboid(Vec3::new(0.2, -0.6, -0.8), Vec3::new(0.7, -0.1, -0.3), true),
+            m,
+            None,
+        );
+    }
+    s
+}
+
+/// Lossless specular objects keep the furnace at 2. Checks refraction, the 1/η² radiance
+/// scaling, media switching at refracting boundaries, and MIS across delta vertices (shadow
+/// rays cannot see through glass).
+#[test]
+fn furnace_with_glass_and_mirror_stays_at_two() {
+    let film = render_pt(glass_furnace(12, 48, true), 1024, 13, None);
     let mean = film.image().mean();
     assert!((mean - Rgb::splat(2.0)).abs().max_element() < 0.02, "mean {mean}");
     let frac = fraction_within(&film, 3.0, |_, _| [2.0; 3]);
@@ -532,32 +542,8 @@ fn furnace_with_glass_and_mirror_stays_at_two() {
 /// intersection tolerances must scale with the scene, not be fixed epsilons.
 #[test]
 fn scene_scale_does_not_change_the_image() {
-    use beamlight_scene::{bsdf::Bsdf, gltf_writer::shapes, scene::MediumInterface};
     for scale in [1e-3f32, 1e4] {
-        let mut s = furnace(Rgb::splat(0.4), 0.2, None);
-        s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, 8, 8).camera;
-        let glass = add_material(
-            &mut s,
-            material(
-                "glass",
-                Some(Bsdf::Glass {
-                    ior: 1.5,
-                    tint: Rgb::ONE,
-                }),
-                Rgb::ZERO,
-                false,
-            ),
-        );
-        s.media.push(homogeneous(Rgb::new(2.0, 1.0, 3.0), Rgb::ZERO, -0.3));
-        add_mesh(
-            &mut s,
-            shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, 16, 32),
-            glass,
-            Some(MediumInterface {
-                inside: Some(1),
-                outside: Some(0),
-            }),
-        );
+        let mut s = glass_furnace(8, 32, false);
         for t in &mut s.triangles {
             t.p = t.p.map(|p| p * scale);
         }

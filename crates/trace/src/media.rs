@@ -88,39 +88,25 @@ fn sample_homogeneous(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler) -
 /// Transmittance estimate along `o + t·d`, `t ∈ (0, tmax)`: exact for homogeneous media,
 /// ratio tracking (unbiased, with Russian roulette on small values) in density grids.
 pub fn transmittance(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sampler) -> Rgb {
-    match &m.density {
-        None => homogeneous_transmittance(m.sigma_t(), tmax),
-        Some(grid) => {
-            let sigma_t = m.sigma_t();
-            let sigma_max = sigma_t.max_element();
-            let mut tr = Rgb::ONE;
-            walk_majorant_cells(grid, o, d, tmax, |t0, t1, maj| {
-                let mu = maj * sigma_max;
-                if mu <= 0.0 {
-                    return true;
-                }
-                let mut t = t0;
-                loop {
-                    t -= (1.0 - s.next_1d()).ln() / mu;
-                    if t >= t1 {
-                        return true;
-                    }
-                    let density = grid.density(o + d * t);
-                    tr *= Rgb::ONE - sigma_t * (density / mu);
-                    let m = tr.max_element();
-                    if m < 0.1 {
-                        // Russian roulette keeps the expected value and bounds the work.
-                        if s.next_1d() >= m {
-                            tr = Rgb::ZERO;
-                            return false;
-                        }
-                        tr /= m;
-                    }
-                }
-            });
-            tr.max(Rgb::ZERO)
+    let Some(grid) = &m.density else {
+        return homogeneous_transmittance(m.sigma_t(), tmax);
+    };
+    let sigma_t = m.sigma_t();
+    let mut tr = Rgb::ONE;
+    tentative_collisions(grid, sigma_t.max_element(), o, d, tmax, s, |_, density, mu, s| {
+        tr *= Rgb::ONE - sigma_t * (density / mu);
+        let m = tr.max_element();
+        if m < 0.1 {
+            // Russian roulette keeps the expected value and bounds the work.
+            if s.next_1d() >= m {
+                tr = Rgb::ZERO;
+                return false;
+            }
+            tr /= m;
         }
-    }
+        true
+    });
+    tr.max(Rgb::ZERO)
 }
 
 fn sample_grid(
@@ -133,11 +119,50 @@ fn sample_grid(
     s: &mut Sampler,
 ) -> MediumEvent {
     let sigma_t = m.sigma_t();
-    let sigma_max = sigma_t.max_element();
     let mut weight = Rgb::ONE;
     let mut result = None;
-    walk_majorant_cells(grid, o, d, tmax, |t0, t1, maj| {
-        let mu = maj * sigma_max;
+    tentative_collisions(grid, sigma_t.max_element(), o, d, tmax, s, |t, density, mu, s| {
+        let sig_s = m.sigma_s * density;
+        let sig_n = (Rgb::splat(mu) - sigma_t * density).max(Rgb::ZERO);
+        let w = (throughput * weight).abs();
+        let p_s_raw = (sig_s * w).max_element();
+        let p_n_raw = (sig_n * w).max_element();
+        let norm = p_s_raw + p_n_raw;
+        if !(norm > 0.0) {
+            // Every channel of the path is dead or the point is pure absorber with a
+            // zero-throughput path: nothing can be carried further.
+            weight = Rgb::ZERO;
+            return false;
+        }
+        let p_s = p_s_raw / norm;
+        if s.next_1d() < p_s {
+            result = Some(MediumEvent::Scatter {
+                t,
+                weight: weight * sig_s / (mu * p_s),
+            });
+            return false;
+        }
+        weight *= sig_n / (mu * (1.0 - p_s));
+        true
+    });
+    result.unwrap_or(MediumEvent::Pass { weight })
+}
+
+/// Samples the tentative collisions of delta/ratio tracking along `o + t·d`, `t ∈ (0, tmax)`:
+/// exponential steps against each majorant cell's μ = σ_max · d̄ (restarted at cell borders,
+/// which the memoryless exponential allows). Calls `f(t, density, μ, sampler)` at each; stops
+/// when `f` returns false.
+fn tentative_collisions(
+    grid: &DensityGrid,
+    sigma_max: f32,
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+    s: &mut Sampler,
+    mut f: impl FnMut(f32, f32, f32, &mut Sampler) -> bool,
+) {
+    walk_majorant_cells(grid, o, d, tmax, |t0, t1, majorant| {
+        let mu = majorant * sigma_max;
         if mu <= 0.0 {
             return true;
         }
@@ -147,32 +172,11 @@ fn sample_grid(
             if t >= t1 {
                 return true;
             }
-            let density = grid.density(o + d * t);
-            let sig_s = m.sigma_s * density;
-            let sig_n = (Rgb::splat(mu) - sigma_t * density).max(Rgb::ZERO);
-            let w = (throughput * weight).abs();
-            let p_s_raw = (sig_s * w).max_element();
-            let p_n_raw = (sig_n * w).max_element();
-            let norm = p_s_raw + p_n_raw;
-            if !(norm > 0.0) {
-                // Every channel of the path is dead or the point is pure absorber with a
-                // zero-throughput path: nothing can be carried further.
-                weight = Rgb::ZERO;
-                result = Some(MediumEvent::Pass { weight });
+            if !f(t, grid.density(o + d * t), mu, s) {
                 return false;
             }
-            let p_s = p_s_raw / norm;
-            if s.next_1d() < p_s {
-                result = Some(MediumEvent::Scatter {
-                    t,
-                    weight: weight * sig_s / (mu * p_s),
-                });
-                return false;
-            }
-            weight *= sig_n / (mu * (1.0 - p_s));
         }
     });
-    result.unwrap_or(MediumEvent::Pass { weight })
 }
 
 /// Calls `f(t0, t1, majorant_density)` for each majorant cell the ray crosses inside the grid's

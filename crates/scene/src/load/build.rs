@@ -67,6 +67,19 @@ pub(super) fn build_scene(
     })
 }
 
+/// "`label`: 'a', 'b'" (sorted, without repeats), or `none` when there are no names: the list
+/// of valid choices an error message offers.
+pub(super) fn name_list<'a>(names: impl Iterator<Item = &'a str>, label: &str, none: &str) -> String {
+    let mut names: Vec<String> = names.map(|n| format!("'{n}'")).collect();
+    names.sort();
+    names.dedup();
+    if names.is_empty() {
+        none.to_string()
+    } else {
+        format!("{label}: {}", names.join(", "))
+    }
+}
+
 fn quoted(name: Option<&String>, kind: &str, i: usize) -> String {
     match name {
         Some(n) => format!("{kind} '{n}'"),
@@ -313,19 +326,8 @@ fn apply_overrides(t: &TomlSrc, sc: &Sidecar, root: &json::Root, materials: &mut
             .filter(|&i| root.materials[i].name.as_deref() == Some(name.get_ref()))
             .collect();
         if targets.is_empty() {
-            let mut names: Vec<String> = root
-                .materials
-                .iter()
-                .filter_map(|m| m.name.as_ref())
-                .map(|n| format!("'{n}'"))
-                .collect();
-            names.sort();
-            names.dedup();
-            let list = if names.is_empty() {
-                "the glTF has no named materials".to_string()
-            } else {
-                format!("available: {}", names.join(", "))
-            };
+            let names = root.materials.iter().filter_map(|m| m.name.as_deref());
+            let list = name_list(names, "available", "the glTF has no named materials");
             return Err(t.err_at(
                 name.span(),
                 format!(

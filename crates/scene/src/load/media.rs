@@ -1,6 +1,6 @@
 //! Media from the sidecar: validation, medium regions (closed meshes), nesting, density grids.
 use super::TomlSrc;
-use super::build::{Geometry, Traversal, mesh_label, node_label};
+use super::build::{Geometry, Traversal, mesh_label, name_list, node_label};
 use super::sidecar::{Rgb3, Sidecar};
 use crate::SceneError;
 use crate::medium::{DensityGrid, Medium, parse_grid};
@@ -125,19 +125,8 @@ pub(super) fn plan_media(
                     match by_node {
                         Some(m) => m.value(),
                         None => {
-                            let mut names: Vec<String> = root
-                                .meshes
-                                .iter()
-                                .filter_map(|m| m.name.as_ref())
-                                .map(|n| format!("'{n}'"))
-                                .collect();
-                            names.sort();
-                            names.dedup();
-                            let list = if names.is_empty() {
-                                "the glTF has no named meshes".to_string()
-                            } else {
-                                format!("meshes: {}", names.join(", "))
-                            };
+                            let names = root.meshes.iter().filter_map(|m| m.name.as_deref());
+                            let list = name_list(names, "meshes", "the glTF has no named meshes");
                             return Err(t.err_at(
                                 m.region.span(),
                                 format!("{head}: region '{region}' names no glTF mesh ({list}); use \"global\" or a mesh name"),
