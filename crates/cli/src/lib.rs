@@ -1,6 +1,6 @@
 //! The `beamlight` command line: `render`, `compare`, `info`.
 use anyhow::{Context, Result, bail};
-use beamlight_render::{Budget, Method, RenderOptions, compare, output};
+use beamlight_render::{Budget, Method, RenderOptions, compare, components::SceneFeatures, output};
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
 use beamlight_trace::{TraceScene, pt::PathTracerSettings};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -316,6 +316,16 @@ fn info(path: &Path) -> Result<()> {
             m.name, m.sigma_s, m.sigma_a, m.g
         );
     }
+    let needed = SceneFeatures::of(s).needed();
+    let names: Vec<&str> = needed.iter().map(|c| c.name()).collect();
+    println!(
+        "components  {} (of the many-light methods; `pt` renders the whole image)",
+        if names.is_empty() {
+            "none: the scene has no emitters".to_string()
+        } else {
+            names.join(", ")
+        }
+    );
     let cam_medium = ts
         .camera_medium
         .map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
