@@ -19,7 +19,8 @@ pub enum Component {
     Lss,
     /// Caustics on surfaces (light → specular chain → diffuse/glossy surface).
     CausticSurface,
-    /// Single scattering and volume caustics (light → specular chain → medium).
+    /// Volume caustics (light → specular chain → medium). Single scattering straight from the
+    /// lights is part of `Direct`.
     CausticVolume,
 }
 
@@ -94,7 +95,7 @@ impl SceneFeatures {
                 Component::Lms => f.media && f.rough_surfaces,
                 Component::Lss => f.rough_surfaces,
                 Component::CausticSurface => f.specular_surfaces && f.rough_surfaces,
-                Component::CausticVolume => f.media,
+                Component::CausticVolume => f.media && f.specular_surfaces,
             })
             .collect()
     }
