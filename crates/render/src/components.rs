@@ -124,8 +124,14 @@ mod tests {
             specular_surfaces: false,
             ..all
         };
+        assert_eq!(fog_only.needed(), vec![Component::Direct, Component::Lmm]);
+        // Fog with a glass object: volume caustics, but nothing for surfaces to gather.
+        let fog_and_glass = SceneFeatures {
+            rough_surfaces: false,
+            ..all
+        };
         assert_eq!(
-            fog_only.needed(),
+            fog_and_glass.needed(),
             vec![Component::Direct, Component::Lmm, Component::CausticVolume]
         );
         assert!(SceneFeatures { emitters: false, ..all }.needed().is_empty());
