@@ -166,7 +166,13 @@ fn gltf_alone_renders_and_info_describes_the_scene() {
     let o = beamlight(&["info", root().join("assets/scenes/cornell_fog.toml").to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    for key in ["triangles", "emitters", "media", "backend", "components  direct, Lsm, Lmm, Lms, Lss "] {
+    for key in [
+        "triangles",
+        "emitters",
+        "media",
+        "backend",
+        "components  direct, Lsm, Lmm, Lms, Lss ",
+    ] {
         assert!(text.contains(key), "info lacks {key}: {text}");
     }
 }
@@ -224,4 +230,23 @@ fn bad_command_lines_are_refused() {
     let o = render(&root().join("no/such/scene.toml"), &out, &["--spp", "1"]);
     assert!(!o.status.success() && stderr(&o).contains("no/such/scene.toml"));
     assert!(!out.exists());
+}
+
+#[test]
+fn time_budget_renders_whole_passes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.exr");
+    let scene = root().join("assets/scenes/cornell.toml");
+    let o = render(&scene, &out, &["--time", "0.5", "--width", "16", "--height", "16"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (img, meta) = read_exr(&out).unwrap();
+    let spp: u64 = meta
+        .iter()
+        .find(|(k, _)| k == "beamlight.spp")
+        .unwrap()
+        .1
+        .parse()
+        .unwrap();
+    assert!(spp >= 1, "at least one pass must run");
+    assert!(img.pixels.iter().all(|p| p.is_finite()));
 }
