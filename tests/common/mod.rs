@@ -18,6 +18,7 @@ pub fn material(name: &str, bsdf: Option<Bsdf>, emission: Rgb, double_sided: boo
         bsdf,
         emission,
         double_sided,
+        base_color_texture: None,
     }
 }
 
@@ -48,6 +49,7 @@ pub fn empty_scene(eye: Vec3, target: Vec3, yfov_deg: f32, width: u32, height: u
         triangles: Vec::new(),
         meshes: vec!["mesh".into()],
         materials: Vec::new(),
+        textures: Vec::new(),
         media: Vec::new(),
         global_medium: None,
         lights: Vec::new(),
@@ -73,6 +75,7 @@ pub fn add_quad(scene: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32
         scene.triangles.push(Triangle {
             p: idx.map(|i| p[i]),
             n: None,
+            uv: None,
             material,
             interface: None,
             mesh: 0,
@@ -201,6 +204,7 @@ pub fn add_mesh(
         scene.triangles.push(Triangle {
             p: [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]],
             n: None,
+            uv: None,
             material,
             interface,
             mesh: mesh_index,

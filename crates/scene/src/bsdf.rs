@@ -10,7 +10,7 @@ use crate::{Rgb, luminance_mean};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, TAU};
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
     /// f = albedo / π.
     Lambert { albedo: Rgb },
@@ -37,7 +37,8 @@ pub struct BsdfSample {
 }
 
 /// A surface material: how it scatters (or `None` for an invisible, index-matched medium
-/// boundary) and what it emits.
+/// boundary) and what it emits. With a base-colour texture, `bsdf` holds the untextured BSDF
+/// (the glTF factor alone); [`crate::Scene::bsdf_at`] gives the BSDF at a hit.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
@@ -46,6 +47,10 @@ pub struct Material {
     pub emission: Rgb,
     /// glTF `doubleSided`: emission leaves both faces (otherwise only the front face).
     pub double_sided: bool,
+    /// Index into [`crate::Scene::textures`]: the base-colour texture that multiplies the
+    /// Lambert albedo or the Phong diffuse colour (see [`crate::Scene::bsdf_at`]). Always
+    /// `None` for other kinds.
+    pub base_color_texture: Option<u32>,
 }
 
 impl Material {
@@ -55,6 +60,25 @@ impl Material {
 }
 
 impl Bsdf {
+    /// This BSDF with its base colour (Lambert albedo, Phong diffuse) multiplied by `c`; mirror
+    /// and glass are returned unchanged. Used to apply a base-colour texture.
+    #[inline]
+    pub fn with_base_color_scaled(self, c: Rgb) -> Bsdf {
+        match self {
+            Bsdf::Lambert { albedo } => Bsdf::Lambert { albedo: albedo * c },
+            Bsdf::Phong {
+                diffuse,
+                specular,
+                exponent,
+            } => Bsdf::Phong {
+                diffuse: diffuse * c,
+                specular,
+                exponent,
+            },
+            other => other,
+        }
+    }
+
     /// f(wo, wi) without the cosine; zero for delta lobes.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {

@@ -1,8 +1,9 @@
 //! A small glTF 2.0 writer for generated scenes (the bundled assets, tests, benchmarks).
 //!
-//! It writes exactly what [`crate::load`] reads: triangle meshes (positions, optional normals,
-//! indices of the smallest sufficient width by default), node transforms, perspective cameras,
-//! metallic-roughness materials with `KHR_materials_emissive_strength`,
+//! It writes exactly what [`crate::load`] reads: triangle meshes (positions, optional normals
+//! and `TEXCOORD_0`, indices of the smallest sufficient width by default), node transforms,
+//! perspective cameras, metallic-roughness materials with an optional `baseColorTexture`
+//! (an embedded PNG with its sampler's wrap modes), `KHR_materials_emissive_strength`,
 //! `KHR_materials_transmission` and `KHR_materials_ior`, and `KHR_lights_punctual` lights.
 //! Output is deterministic: the same calls give byte-identical files.
 //!
@@ -16,8 +17,9 @@
 //! b.camera_look_at("Camera", Vec3::new(0.0, 1.0, 3.0), Vec3::Y, Vec3::Y, 0.7, None);
 //! b.write_gltf(std::path::Path::new("floor.gltf")).unwrap();
 //! ```
+use crate::texture::Wrap;
 use base64::Engine as _;
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Quat, Vec2, Vec3};
 use serde_json::{Map, Value, json};
 use std::path::Path;
 
@@ -36,6 +38,9 @@ pub struct MaterialDesc {
     pub transmission: f32,
     /// `KHR_materials_ior` (written when transmission > 0 or the value is not 1.5).
     pub ior: f32,
+    /// `baseColorTexture` (reading `TEXCOORD_0`): a texture index returned by
+    /// [`GltfBuilder::texture_png`]. It multiplies `base_color`.
+    pub base_color_texture: Option<u32>,
 }
 
 impl MaterialDesc {
@@ -49,6 +54,7 @@ impl MaterialDesc {
             double_sided: false,
             transmission: 0.0,
             ior: 1.5,
+            base_color_texture: None,
         }
     }
 
@@ -83,6 +89,12 @@ impl MaterialDesc {
     /// Builder-style [`MaterialDesc::set_emission`].
     pub fn with_emission(mut self, radiance: [f32; 3]) -> Self {
         self.set_emission(radiance);
+        self
+    }
+
+    /// Builder-style `base_color_texture`.
+    pub fn with_base_color_texture(mut self, texture: u32) -> Self {
+        self.base_color_texture = Some(texture);
         self
     }
 
@@ -156,7 +168,16 @@ struct MeshData {
     positions: Vec<Vec3>,
     indices: Vec<u32>,
     normals: Option<Vec<Vec3>>,
+    texcoords: Option<Vec<Vec2>>,
     material: Option<u32>,
+}
+
+#[derive(Clone, Debug)]
+struct TextureData {
+    name: String,
+    png: Vec<u8>,
+    wrap_s: Wrap,
+    wrap_t: Wrap,
 }
 
 #[derive(Clone, Debug)]
@@ -196,6 +217,7 @@ pub struct GltfBuilder {
     nodes: Vec<NodeData>,
     cameras: Vec<CameraData>,
     lights: Vec<LightData>,
+    textures: Vec<TextureData>,
     index_width: IndexWidth,
 }
 
@@ -213,6 +235,13 @@ impl GltfBuilder {
 
     /// Adds a material; returns its index.
     pub fn material(&mut self, m: MaterialDesc) -> u32 {
+        if let Some(t) = m.base_color_texture {
+            assert!(
+                (t as usize) < self.textures.len(),
+                "material '{}': no texture {t}",
+                m.name
+            );
+        }
         self.materials.push(m);
         (self.materials.len() - 1) as u32
     }
@@ -238,9 +267,56 @@ impl GltfBuilder {
             positions: positions.to_vec(),
             indices: indices.to_vec(),
             normals: normals.map(|n| n.to_vec()),
+            texcoords: None,
             material,
         });
         (self.meshes.len() - 1) as u32
+    }
+
+    /// Gives mesh `mesh` texture coordinates (`TEXCOORD_0`, `FLOAT`), one per position; glTF's
+    /// convention: (0, 0) is the top-left corner of the image.
+    pub fn texcoords(&mut self, mesh: u32, uv: &[Vec2]) -> &mut Self {
+        let m = &mut self.meshes[mesh as usize];
+        assert_eq!(uv.len(), m.positions.len(), "mesh '{}': one uv per position", m.name);
+        m.texcoords = Some(uv.to_vec());
+        self
+    }
+
+    /// Adds a texture whose image is an embedded PNG of `width × height` sRGB-encoded 8-bit
+    /// texels (`rows[y * width + x]`, row 0 at the top, i.e. at v = 0), with a sampler of the
+    /// given wrap modes (bilinear filtering); returns the texture index for
+    /// [`MaterialDesc::base_color_texture`].
+    pub fn texture_png(
+        &mut self,
+        name: &str,
+        width: u32,
+        height: u32,
+        srgb: &[[u8; 3]],
+        wrap_s: Wrap,
+        wrap_t: Wrap,
+    ) -> u32 {
+        assert_eq!(
+            srgb.len() as u64,
+            width as u64 * height as u64,
+            "texture '{name}': width × height texels"
+        );
+        let bytes: Vec<u8> = srgb.iter().flatten().copied().collect();
+        let mut png = Vec::new();
+        image::ImageEncoder::write_image(
+            image::codecs::png::PngEncoder::new(&mut png),
+            &bytes,
+            width,
+            height,
+            image::ExtendedColorType::Rgb8,
+        )
+        .expect("PNG encoding to memory succeeds");
+        self.textures.push(TextureData {
+            name: name.to_string(),
+            png,
+            wrap_s,
+            wrap_t,
+        });
+        (self.textures.len() - 1) as u32
     }
 
     /// Adds a mesh and a root node of the same name with the identity transform; returns the
@@ -465,6 +541,21 @@ impl GltfBuilder {
                 }));
                 attributes.insert("NORMAL".into(), json!(accessors.len() - 1));
             }
+            if let Some(uv) = &m.texcoords {
+                let bytes: Vec<u8> = uv
+                    .iter()
+                    .flat_map(|p| p.to_array())
+                    .flat_map(f32::to_le_bytes)
+                    .collect();
+                let view = push_view(&mut bin, &bytes, ARRAY_BUFFER);
+                accessors.push(json!({
+                    "bufferView": view,
+                    "componentType": FLOAT,
+                    "count": uv.len(),
+                    "type": "VEC2",
+                }));
+                attributes.insert("TEXCOORD_0".into(), json!(accessors.len() - 1));
+            }
             let mut prim = Map::new();
             prim.insert("attributes".into(), Value::Object(attributes));
             prim.insert("mode".into(), json!(4));
@@ -509,6 +600,22 @@ impl GltfBuilder {
             }
             meshes.push(json!({ "name": m.name, "primitives": [Value::Object(prim)] }));
         }
+        let (mut images, mut samplers, mut textures) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, t) in self.textures.iter().enumerate() {
+            while !bin.len().is_multiple_of(4) {
+                bin.push(0);
+            }
+            views.push(json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": t.png.len() }));
+            bin.extend_from_slice(&t.png);
+            images.push(json!({ "name": t.name, "bufferView": views.len() - 1, "mimeType": "image/png" }));
+            samplers.push(json!({
+                "magFilter": 9729,
+                "minFilter": 9729,
+                "wrapS": t.wrap_s.gl_enum(),
+                "wrapT": t.wrap_t.gl_enum(),
+            }));
+            textures.push(json!({ "name": t.name, "sampler": i, "source": i }));
+        }
         while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
@@ -518,14 +625,15 @@ impl GltfBuilder {
         for m in &self.materials {
             let mut o = Map::new();
             o.insert("name".into(), json!(m.name));
-            o.insert(
-                "pbrMetallicRoughness".into(),
-                json!({
-                    "baseColorFactor": [num(m.base_color[0]), num(m.base_color[1]), num(m.base_color[2]), num(1.0)],
-                    "metallicFactor": num(0.0),
-                    "roughnessFactor": num(1.0),
-                }),
-            );
+            let mut pbr = json!({
+                "baseColorFactor": [num(m.base_color[0]), num(m.base_color[1]), num(m.base_color[2]), num(1.0)],
+                "metallicFactor": num(0.0),
+                "roughnessFactor": num(1.0),
+            });
+            if let Some(t) = m.base_color_texture {
+                pbr["baseColorTexture"] = json!({ "index": t });
+            }
+            o.insert("pbrMetallicRoughness".into(), pbr);
             if m.emissive != [0.0; 3] {
                 o.insert("emissiveFactor".into(), json!(m.emissive.map(num)));
             }
@@ -650,8 +758,15 @@ impl GltfBuilder {
         if !meshes.is_empty() {
             root.insert("meshes".into(), Value::Array(meshes));
             root.insert("accessors".into(), Value::Array(accessors));
+        }
+        if !views.is_empty() {
             root.insert("bufferViews".into(), Value::Array(views));
             root.insert("buffers".into(), json!([{ "byteLength": bin.len() }]));
+        }
+        if !textures.is_empty() {
+            root.insert("images".into(), Value::Array(images));
+            root.insert("samplers".into(), Value::Array(samplers));
+            root.insert("textures".into(), Value::Array(textures));
         }
         if !materials.is_empty() {
             root.insert("materials".into(), Value::Array(materials));

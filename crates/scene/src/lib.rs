@@ -2,7 +2,7 @@
 //!
 //! * [`scene`]: the flattened, world-space [`Scene`] every renderer consumes.
 //! * [`load`]: glTF 2.0 + TOML sidecar → [`Scene`], with errors that name the file and the problem.
-//! * [`bsdf`], [`phase`], [`medium`], [`light`], [`camera`]: what the scene is made of.
+//! * [`bsdf`], [`texture`], [`phase`], [`medium`], [`light`], [`camera`]: what the scene is made of.
 //! * [`sampling`], [`frame`], [`rng`]: the shared Monte Carlo toolbox (also mirrored in WGSL later).
 //!
 //! Conventions used everywhere: directions are unit vectors pointing *away* from the point
@@ -21,6 +21,7 @@ pub mod phase;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod texture;
 
 pub use error::SceneError;
 pub use scene::Scene;

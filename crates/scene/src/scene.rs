@@ -1,6 +1,13 @@
 //! The flattened scene: world-space triangles plus everything they refer to by index.
-use crate::{Rgb, bsdf::Material, camera::Camera, light::PunctualLight, medium::Medium};
-use glam::Vec3;
+use crate::{
+    Rgb,
+    bsdf::{Bsdf, Material},
+    camera::Camera,
+    light::PunctualLight,
+    medium::Medium,
+    texture::Texture,
+};
+use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 
 /// Index into [`Scene::media`]; `None` means vacuum.
@@ -29,6 +36,9 @@ pub struct Triangle {
     pub p: [Vec3; 3],
     /// Per-vertex shading normals, when the glTF primitive had them.
     pub n: Option<[Vec3; 3]>,
+    /// Per-vertex texture coordinates (glTF convention, see [`crate::texture`]); only present
+    /// when the triangle's material has a base-colour texture.
+    pub uv: Option<[Vec2; 3]>,
     /// Index into [`Scene::materials`].
     pub material: u32,
     /// `Some` when the triangle is part of the closed mesh that bounds a medium.
@@ -60,6 +70,12 @@ impl Triangle {
             None => ng,
         }
     }
+
+    /// Texture coordinates at barycentrics (b1, b2) (weights 1 − b1 − b2, b1, b2), if any.
+    #[inline]
+    pub fn uv_at(&self, b1: f32, b2: f32) -> Option<Vec2> {
+        self.uv.map(|uv| uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2)
+    }
 }
 
 /// Render settings from the sidecar's `[render]` table (or defaults).
@@ -78,6 +94,8 @@ pub struct Scene {
     /// Names of the glTF meshes, indexed by [`Triangle::mesh`].
     pub meshes: Vec<String>,
     pub materials: Vec<Material>,
+    /// Base-colour textures, indexed by [`Material::base_color_texture`].
+    pub textures: Vec<Texture>,
     pub media: Vec<Medium>,
     /// The medium with `region = "global"`: it fills all space not inside a medium region.
     pub global_medium: MediumId,
@@ -108,6 +126,21 @@ impl Scene {
         lo = lo.min(self.camera.position());
         hi = hi.max(self.camera.position());
         (lo, hi)
+    }
+
+    /// The BSDF of `material` at texture coordinates `uv`: the material's BSDF with its base
+    /// colour (Lambert albedo, Phong diffuse) multiplied by its base-colour texture at `uv`
+    /// (`baseColorFactor` is already part of the material's BSDF, so the result is
+    /// texture × factor). Untextured materials, or `uv = None`, give the material's BSDF
+    /// unchanged (a plain copy). `None` for an invisible medium boundary.
+    #[inline]
+    pub fn bsdf_at(&self, material: u32, uv: Option<Vec2>) -> Option<Bsdf> {
+        let m = &self.materials[material as usize];
+        let bsdf = m.bsdf?;
+        match (m.base_color_texture, uv) {
+            (Some(t), Some(uv)) => Some(bsdf.with_base_color_scaled(self.textures[t as usize].sample(uv))),
+            _ => Some(bsdf),
+        }
     }
 
     /// Emitted radiance of a material, zero for non-emitters.

@@ -7,8 +7,9 @@ use beamlight_scene::light::PunctualLight;
 use beamlight_scene::load::load_scene;
 use beamlight_scene::medium::write_grid;
 use beamlight_scene::scene::MediumInterface;
+use beamlight_scene::texture::Wrap;
 use beamlight_scene::{Scene, SceneError};
-use glam::{Quat, UVec3, Vec3};
+use glam::{Quat, UVec3, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
 fn workspace() -> PathBuf {
@@ -683,8 +684,9 @@ fn unsupported_features_warn_once() {
     b.point_light("L", Vec3::Z, [1.0; 3], 1.0);
     b.camera_look_at("C", Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 0.5, None);
     let mut v: serde_json::Value = serde_json::from_str(&b.to_json_string()).unwrap();
-    v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = serde_json::json!({ "index": 0 });
+    // Only the textures we ignore warn; their images are never read (this one is missing).
     v["materials"][0]["emissiveTexture"] = serde_json::json!({ "index": 0 });
+    v["materials"][0]["normalTexture"] = serde_json::json!({ "index": 0 });
     v["textures"] = serde_json::json!([{ "source": 0 }]);
     v["images"] = serde_json::json!([{ "uri": "missing.png" }]);
     v["extensionsUsed"] = serde_json::json!([
@@ -698,7 +700,12 @@ fn unsupported_features_warn_once() {
     std::fs::write(&path, serde_json::to_string(&v).unwrap()).unwrap();
     let s = load_ok(&path);
     let count = |frag: &str| s.warnings.iter().filter(|w| w.contains(frag)).count();
-    assert_eq!(count("textures ignored"), 1, "{:?}", s.warnings);
+    assert_eq!(
+        count("textures ignored: normalTexture, emissiveTexture"),
+        1,
+        "{:?}",
+        s.warnings
+    );
     assert_eq!(count("KHR_texture_transform"), 1);
     assert_eq!(count("KHR_materials_clearcoat"), 1);
     assert_eq!(count("range ignored"), 1);
@@ -1033,4 +1040,630 @@ fn camera_by_camera_name_and_instanced_region_mesh() {
             outside: None
         })));
     assert_eq!(s.global_medium, None);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Base-colour textures
+// ---------------------------------------------------------------------------------------------
+
+/// The exact sRGB EOTF, written out independently of the loader.
+fn srgb8(c: u8) -> f32 {
+    let c = c as f64 / 255.0;
+    (if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }) as f32
+}
+
+fn srgb_rgb(c: [u8; 3]) -> Vec3 {
+    Vec3::new(srgb8(c[0]), srgb8(c[1]), srgb8(c[2]))
+}
+
+fn encode_png(w: u32, h: u32, bytes: &[u8], color: image::ExtendedColorType) -> Vec<u8> {
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(image::codecs::png::PngEncoder::new(&mut png), bytes, w, h, color).unwrap();
+    png
+}
+
+fn data_uri(mime: &str, bytes: &[u8]) -> String {
+    use base64::Engine as _;
+    format!(
+        "data:{mime};base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
+}
+
+/// 4×2 texels, row 0 first (v = 0 is the top row).
+const TEXELS: [[u8; 3]; 8] = [
+    [0, 0, 0],
+    [255, 255, 255],
+    [10, 20, 30],
+    [128, 64, 200],
+    [1, 2, 3],
+    [250, 100, 40],
+    [77, 77, 77],
+    [200, 0, 255],
+];
+const FACTOR: [f32; 3] = [1.0, 0.5, 0.25];
+/// uv of the floor quad's corners (p0 = (−1, 0, 1), p1 = (1, 0, 1), p2 = (1, 0, −1), p3 = (−1, 0, −1)).
+const QUAD_UV: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+
+/// A floor quad with material "Checker" = `FACTOR` × the 4×2 texture `TEXELS` (clamped).
+fn textured_scene() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let t = b.texture_png("checker", 4, 2, &TEXELS, Wrap::ClampToEdge, Wrap::ClampToEdge);
+    let m = b.material(MaterialDesc::lambert("Checker", FACTOR).with_base_color_texture(t));
+    let (p, i) = shapes::quad(Vec3::new(-1.0, 0.0, 1.0), Vec3::X * 2.0, Vec3::NEG_Z * 2.0);
+    let mesh = b.mesh("Floor", &p, &i, None, Some(m));
+    b.texcoords(mesh, &QUAD_UV.map(Vec2::from));
+    b.camera_look_at("Cam", Vec3::new(0.0, 3.0, 0.1), Vec3::ZERO, Vec3::Y, 0.8, None);
+    b
+}
+
+fn textured_json() -> serde_json::Value {
+    serde_json::from_str(&textured_scene().to_json_string()).unwrap()
+}
+
+fn write_json(dir: &Path, name: &str, v: &serde_json::Value) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_string(v).unwrap()).unwrap();
+    p
+}
+
+fn material_index(s: &Scene, name: &str) -> u32 {
+    s.materials.iter().position(|m| m.name == name).unwrap() as u32
+}
+
+/// Everything a correctly loaded `textured_scene` (or a variant) must show.
+fn check_textured(s: &Scene) {
+    assert!(
+        s.warnings.iter().all(|w| !w.contains("textur") && !w.contains("image")),
+        "{:?}",
+        s.warnings
+    );
+    assert_eq!(s.textures.len(), 1);
+    let tex = &s.textures[0];
+    assert_eq!((tex.width(), tex.height()), (4, 2));
+    assert_eq!((tex.wrap_s(), tex.wrap_t()), (Wrap::ClampToEdge, Wrap::ClampToEdge));
+    for y in 0..2 {
+        for x in 0..4 {
+            // Exactly the sRGB EOTF of the stored bytes, first texel in memory at (0, 0).
+            assert_eq!(
+                tex.texel(x, y),
+                srgb_rgb(TEXELS[(y * 4 + x) as usize]),
+                "texel ({x}, {y})"
+            );
+        }
+    }
+    let m = material_index(s, "Checker");
+    let mat = &s.materials[m as usize];
+    assert_eq!(mat.base_color_texture, Some(0));
+    assert_eq!(
+        mat.bsdf,
+        Some(Bsdf::Lambert {
+            albedo: Vec3::from(FACTOR)
+        })
+    );
+    for t in &s.triangles {
+        let uv = t.uv.expect("textured triangles have uvs");
+        for k in 0..3 {
+            // Recover which quad corner this vertex is.
+            let corner = (0..4)
+                .find(|&c| {
+                    let q = [
+                        Vec3::new(-1.0, 0.0, 1.0),
+                        Vec3::new(1.0, 0.0, 1.0),
+                        Vec3::new(1.0, 0.0, -1.0),
+                        Vec3::new(-1.0, 0.0, -1.0),
+                    ];
+                    q[c] == t.p[k]
+                })
+                .unwrap();
+            assert_eq!(uv[k], Vec2::from(QUAD_UV[corner]));
+        }
+    }
+    // At a texel centre the BSDF's albedo is factor × that texel.
+    for (x, y) in [(0u32, 0u32), (3, 0), (1, 1), (2, 1)] {
+        let uv = Vec2::new((x as f32 + 0.5) / 4.0, (y as f32 + 0.5) / 2.0);
+        let want = Vec3::from(FACTOR) * srgb_rgb(TEXELS[(y * 4 + x) as usize]);
+        assert_eq!(s.bsdf_at(m, Some(uv)), Some(Bsdf::Lambert { albedo: want }));
+    }
+    // No uv: the factor alone.
+    assert_eq!(s.bsdf_at(m, None), mat.bsdf);
+}
+
+#[test]
+fn base_color_texture_from_buffer_view_glb_data_uri_and_file() {
+    let dir = tempfile::tempdir().unwrap();
+    // bufferView in a .gltf (embedded buffer) and in a .glb (BIN chunk).
+    let gltf = dir.path().join("t.gltf");
+    textured_scene().write_gltf(&gltf).unwrap();
+    check_textured(&load_ok(&gltf));
+    let glb = dir.path().join("t.glb");
+    textured_scene().write_glb(&glb).unwrap();
+    check_textured(&load_ok(&glb));
+
+    let bytes: Vec<u8> = TEXELS.iter().flatten().copied().collect();
+    let png = encode_png(4, 2, &bytes, image::ExtendedColorType::Rgb8);
+    // A data URI (no mimeType: the data URI's type is used).
+    let mut v = textured_json();
+    v["images"][0] = serde_json::json!({ "uri": data_uri("image/png", &png) });
+    check_textured(&load_ok(&write_json(dir.path(), "d.gltf", &v)));
+    // A file relative to the glTF, %-escaped.
+    std::fs::create_dir(dir.path().join("tex dir")).unwrap();
+    std::fs::write(dir.path().join("tex dir/wood 1.png"), &png).unwrap();
+    v["images"][0] = serde_json::json!({ "uri": "tex%20dir/wood%201.png" });
+    let s = load_ok(&write_json(dir.path(), "f.gltf", &v));
+    check_textured(&s);
+    assert_eq!(s.textures[0].name(), "image 0 'tex%20dir/wood%201.png'");
+
+    // A few sRGB values against published numbers, too.
+    let t = &s.textures[0];
+    assert_eq!(t.texel(0, 0), Vec3::ZERO);
+    assert_eq!(t.texel(1, 0), Vec3::ONE);
+    assert_eq!(t.texel(2, 0).x, (10.0f64 / 255.0 / 12.92) as f32); // linear segment
+    assert!((t.texel(3, 0).x - 0.215_860_5).abs() < 1e-7, "{}", t.texel(3, 0).x); // sRGB 128
+}
+
+#[test]
+fn textures_are_shared_and_wrap_modes_come_from_the_sampler() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut v = textured_json();
+    // Three more materials: one on the same texture, one on the same image with another
+    // sampler, one on the same image without a sampler (REPEAT).
+    let base = v["materials"][0].clone();
+    for (name, tex) in [("Same", 0), ("Mirrored", 1), ("NoSampler", 2)] {
+        let mut m = base.clone();
+        m["name"] = serde_json::json!(name);
+        m["pbrMetallicRoughness"]["baseColorTexture"]["index"] = serde_json::json!(tex);
+        v["materials"].as_array_mut().unwrap().push(m);
+    }
+    v["samplers"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({ "wrapS": 33648, "wrapT": 10497 }));
+    let textures = v["textures"].as_array_mut().unwrap();
+    textures.push(serde_json::json!({ "sampler": 1, "source": 0 }));
+    textures.push(serde_json::json!({ "source": 0 }));
+    // Give every material a floor of its own.
+    let prim = v["meshes"][0]["primitives"][0].clone();
+    for m in 1..4 {
+        let mut p = prim.clone();
+        p["material"] = serde_json::json!(m);
+        v["meshes"][0]["primitives"].as_array_mut().unwrap().push(p);
+    }
+    let s = load_ok(&write_json(dir.path(), "w.gltf", &v));
+    assert_eq!(s.textures.len(), 3, "{:?}", s.textures);
+    let tex_of = |name: &str| {
+        s.materials[material_index(&s, name) as usize]
+            .base_color_texture
+            .unwrap()
+    };
+    assert_eq!(tex_of("Checker"), tex_of("Same"));
+    let wraps = |t: u32| (s.textures[t as usize].wrap_s(), s.textures[t as usize].wrap_t());
+    assert_eq!(wraps(tex_of("Checker")), (Wrap::ClampToEdge, Wrap::ClampToEdge));
+    assert_eq!(wraps(tex_of("Mirrored")), (Wrap::MirroredRepeat, Wrap::Repeat));
+    assert_eq!(wraps(tex_of("NoSampler")), (Wrap::Repeat, Wrap::Repeat));
+    assert_eq!(s.triangles.len(), 8);
+    assert!(s.triangles.iter().all(|t| t.uv.is_some()));
+
+    // The wrap modes at work, through bsdf_at.
+    let albedo = |name: &str, u: f32, v: f32| match s.bsdf_at(material_index(&s, name), Some(Vec2::new(u, v))) {
+        Some(Bsdf::Lambert { albedo }) => albedo,
+        other => panic!("{other:?}"),
+    };
+    let f = Vec3::from(FACTOR);
+    let texel = |x: usize, y: usize| f * srgb_rgb(TEXELS[y * 4 + x]);
+    // Clamp: far outside gives the edge texels.
+    assert_eq!(albedo("Checker", -3.0, 0.1), texel(0, 0));
+    assert_eq!(albedo("Checker", 7.0, 9.0), texel(3, 1));
+    // Repeat: shifted by whole periods.
+    assert_eq!(albedo("NoSampler", 2.375, -0.75), texel(1, 0));
+    // Mirrored in u: u and −u and 2 − u agree; repeat in v.
+    assert_eq!(albedo("Mirrored", -0.375, 0.25), texel(1, 0));
+    assert_eq!(albedo("Mirrored", 1.625, 1.25), texel(1, 0));
+    // Bilinear halfway between two texel centres.
+    let mid = albedo("Checker", 0.25, 0.25);
+    assert!(approx(mid, 0.5 * (texel(0, 0) + texel(1, 0)), 1e-6), "{mid}");
+}
+
+/// Replaces the quad's TEXCOORD_0 with `bytes` (in a new buffer) read as `component`.
+fn with_integer_texcoords(component: u32, bytes: &[u8], stride: Option<usize>, normalized: bool) -> serde_json::Value {
+    let mut v = textured_json();
+    v["buffers"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({ "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", bytes) }));
+    let nb = v["buffers"].as_array().unwrap().len() - 1;
+    let mut view = serde_json::json!({ "buffer": nb, "byteLength": bytes.len() });
+    if let Some(s) = stride {
+        view["byteStride"] = serde_json::json!(s);
+    }
+    v["bufferViews"].as_array_mut().unwrap().push(view);
+    let nv = v["bufferViews"].as_array().unwrap().len() - 1;
+    v["accessors"].as_array_mut().unwrap().push(serde_json::json!({
+        "bufferView": nv, "componentType": component, "normalized": normalized, "count": 4, "type": "VEC2"
+    }));
+    let na = v["accessors"].as_array().unwrap().len() - 1;
+    v["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = serde_json::json!(na);
+    v
+}
+
+#[test]
+fn normalized_integer_texcoords_and_texcoord_sets() {
+    let dir = tempfile::tempdir().unwrap();
+    let corner_uv = |s: &Scene, corner: Vec3| {
+        let t = s.triangles.iter().find(|t| t.p.contains(&corner)).unwrap();
+        t.uv.unwrap()[t.p.iter().position(|p| *p == corner).unwrap()]
+    };
+    let p0 = Vec3::new(-1.0, 0.0, 1.0);
+    let p2 = Vec3::new(1.0, 0.0, -1.0);
+    // UNSIGNED_BYTE, padded to a 4-byte stride.
+    let u8s = [0u8, 255, 0, 0, 255, 255, 0, 0, 51, 204, 0, 0, 7, 0, 0, 0];
+    let s = load_ok(&write_json(
+        dir.path(),
+        "u8.gltf",
+        &with_integer_texcoords(5121, &u8s, Some(4), true),
+    ));
+    assert_eq!(corner_uv(&s, p0), Vec2::new(0.0, 1.0));
+    assert_eq!(corner_uv(&s, p2), Vec2::new(51.0 / 255.0, 204.0 / 255.0));
+    // UNSIGNED_SHORT, tightly packed.
+    let u16s: Vec<u8> = [0u16, 65535, 65535, 65535, 13107, 52428, 1, 0]
+        .iter()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    let s = load_ok(&write_json(
+        dir.path(),
+        "u16.gltf",
+        &with_integer_texcoords(5123, &u16s, None, true),
+    ));
+    assert_eq!(corner_uv(&s, p0), Vec2::new(0.0, 1.0));
+    assert_eq!(corner_uv(&s, p2), Vec2::new(13107.0 / 65535.0, 52428.0 / 65535.0));
+    // Not normalized: KHR_mesh_quantization territory.
+    let p = write_json(
+        dir.path(),
+        "raw.gltf",
+        &with_integer_texcoords(5121, &u8s, Some(4), false),
+    );
+    let e = load_err(&p);
+    assert!(
+        e.contains("raw.gltf") && e.contains("TEXCOORD_0: accessor 3 is UNSIGNED_BYTE VEC2 but not normalized"),
+        "{e}"
+    );
+    // A FLOAT VEC3 accessor is not texture coordinates.
+    let mut v = textured_json();
+    v["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = serde_json::json!(0);
+    let e = load_err(&write_json(dir.path(), "vec3.gltf", &v));
+    assert!(e.contains("TEXCOORD_0: accessor 0 is FLOAT VEC3, expected VEC2"), "{e}");
+
+    // texCoord = 1 reads TEXCOORD_1.
+    let mut v = textured_json();
+    let attrs = &mut v["meshes"][0]["primitives"][0]["attributes"];
+    attrs["TEXCOORD_1"] = attrs["TEXCOORD_0"].clone();
+    attrs["TEXCOORD_0"] = serde_json::json!(0); // would be an error if it were read
+    v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = serde_json::json!(1);
+    let s = load_ok(&write_json(dir.path(), "set1.gltf", &v));
+    assert_eq!(corner_uv(&s, p0), Vec2::new(0.0, 1.0));
+    // ...and without TEXCOORD_1, uv (0, 0) with a warning.
+    v["meshes"][0]["primitives"][0]["attributes"]
+        .as_object_mut()
+        .unwrap()
+        .remove("TEXCOORD_1");
+    let s = load_ok(&write_json(dir.path(), "noset.gltf", &v));
+    assert!(s.triangles.iter().all(|t| t.uv == Some([Vec2::ZERO; 3])));
+    assert_eq!(
+        s.warnings.iter().filter(|w| w.contains("no TEXCOORD_1")).count(),
+        1,
+        "{:?}",
+        s.warnings
+    );
+    // A NaN texture coordinate is an error naming the vertex.
+    let nan: Vec<u8> = [0.0f32, 0.0, 1.0, f32::NAN, 1.0, 1.0, 0.0, 1.0]
+        .iter()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    let mut v = with_integer_texcoords(5126, &nan, None, false);
+    v["bufferViews"].as_array_mut().unwrap().last_mut().unwrap()["byteLength"] = serde_json::json!(32);
+    let e = load_err(&write_json(dir.path(), "nan.gltf", &v));
+    assert!(e.contains("vertex 1 has a non-finite TEXCOORD_0"), "{e}");
+}
+
+#[test]
+fn broken_images_give_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes: Vec<u8> = TEXELS.iter().flatten().copied().collect();
+    let png = encode_png(4, 2, &bytes, image::ExtendedColorType::Rgb8);
+    let mut garbage = png[..16].to_vec();
+    garbage.extend_from_slice(&[0x5a; 64]);
+    let cases: Vec<(&str, serde_json::Value, &str)> = vec![
+        (
+            "missing.gltf",
+            serde_json::json!({ "uri": "no_such_wood.png" }),
+            "image 0 'no_such_wood.png': cannot read '",
+        ),
+        (
+            "corrupt.gltf",
+            serde_json::json!({ "name": "wood", "uri": data_uri("image/png", &garbage) }),
+            "image 0 'wood': cannot decode: ",
+        ),
+        (
+            "truncated.gltf",
+            serde_json::json!({ "uri": data_uri("image/png", &png[..png.len() / 2]) }),
+            "image 0: cannot decode: ",
+        ),
+        (
+            "notimage.gltf",
+            serde_json::json!({ "uri": data_uri("image/png", b"hello, world") }),
+            "image 0: cannot decode: not a PNG or JPEG image",
+        ),
+        (
+            "remote.gltf",
+            serde_json::json!({ "uri": "https://example.com/wood.png" }),
+            "remote uri 'https://example.com/wood.png' is not supported",
+        ),
+        (
+            "nothing.gltf",
+            serde_json::json!({}),
+            "has neither a uri nor a bufferView",
+        ),
+        (
+            "badview.gltf",
+            serde_json::json!({ "bufferView": 0, "mimeType": "image/png" }),
+            "cannot decode",
+        ),
+    ];
+    for (file, image, fragment) in cases {
+        let mut v = textured_json();
+        v["images"][0] = image;
+        let e = load_err(&write_json(dir.path(), file, &v));
+        assert!(
+            e.contains(file) && e.contains("material 'Checker' baseColorTexture: ") && e.contains(fragment),
+            "{file}: {e}"
+        );
+        if file == "missing.gltf" {
+            assert!(e.contains("no_such_wood.png"), "{e}");
+        }
+    }
+    // A sampler with an invalid wrap mode fails validation with a message naming it.
+    let mut v = textured_json();
+    v["samplers"][0]["wrapS"] = serde_json::json!(12345);
+    let e = load_err(&write_json(dir.path(), "wrap.gltf", &v));
+    assert!(e.contains("wrap.gltf") && e.contains("wrapS"), "{e}");
+}
+
+#[test]
+fn unsupported_image_types_fall_back_to_the_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let webp = b"RIFF\x10\0\0\0WEBPVP8 \x04\0\0\0\0\0\0\0";
+    for (file, image, fragment) in [
+        (
+            "ktx.gltf",
+            serde_json::json!({ "bufferView": 0, "mimeType": "image/ktx2" }),
+            "'image/ktx2' images are not supported",
+        ),
+        (
+            "webp_uri.gltf",
+            serde_json::json!({ "uri": data_uri("image/webp", webp) }),
+            "'image/webp' images are not supported",
+        ),
+        (
+            "webp_file.gltf",
+            serde_json::json!({ "uri": "wood.webp" }),
+            "WebP images are not supported",
+        ),
+    ] {
+        std::fs::write(dir.path().join("wood.webp"), webp).unwrap();
+        let mut v = textured_json();
+        v["images"][0] = image;
+        let s = load_ok(&write_json(dir.path(), file, &v));
+        let m = &s.materials[material_index(&s, "Checker") as usize];
+        assert_eq!(m.base_color_texture, None);
+        assert_eq!(
+            m.bsdf,
+            Some(Bsdf::Lambert {
+                albedo: Vec3::from(FACTOR)
+            })
+        );
+        assert!(s.textures.is_empty() && s.triangles.iter().all(|t| t.uv.is_none()));
+        let warned: Vec<_> = s.warnings.iter().filter(|w| w.contains(fragment)).collect();
+        assert_eq!(warned.len(), 1, "{file}: {:?}", s.warnings);
+        assert!(
+            warned[0].starts_with(&format!("{file}: material 'Checker' baseColorTexture: image 0")),
+            "{}",
+            warned[0]
+        );
+    }
+}
+
+#[test]
+fn jpeg_sixteen_bit_grey_and_alpha_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let load_image = |name: &str, uri: String| {
+        let mut v = textured_json();
+        v["images"][0] = serde_json::json!({ "uri": uri });
+        let s = load_ok(&write_json(dir.path(), name, &v));
+        s.textures[0].clone()
+    };
+    // JPEG (lossy: within 2 code values of a flat colour).
+    let mut jpg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpg, 100)
+        .encode(&[200u8, 100, 50].repeat(64), 8, 8, image::ExtendedColorType::Rgb8)
+        .unwrap();
+    let t = load_image("jpg.gltf", data_uri("image/jpeg", &jpg));
+    assert_eq!((t.width(), t.height()), (8, 8));
+    for (c, want) in [200u8, 100, 50].into_iter().enumerate() {
+        let got = t.texel(3, 5)[c];
+        assert!(got >= srgb8(want - 2) && got <= srgb8(want + 2), "channel {c}: {got}");
+    }
+    // 16-bit PNG: full precision through the EOTF.
+    let v16 = [0u16, 32768, 65535, 1000, 3000, 60000];
+    let bytes: Vec<u8> = v16.iter().flat_map(|c| c.to_ne_bytes()).collect(); // the encoder takes native order
+    let png16 = encode_png(2, 1, &bytes, image::ExtendedColorType::Rgb16);
+    let t = load_image("png16.gltf", data_uri("image/png", &png16));
+    let eotf16 = |c: u16| {
+        let c = c as f64 / 65535.0;
+        (if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }) as f32
+    };
+    for x in 0..2 {
+        for c in 0..3 {
+            assert_eq!(
+                t.texel(x, 0)[c],
+                eotf16(v16[3 * x as usize + c]),
+                "texel {x} channel {c}"
+            );
+        }
+    }
+    // RGBA: alpha ignored (not premultiplied).
+    let rgba = encode_png(1, 1, &[90, 180, 250, 0], image::ExtendedColorType::Rgba8);
+    let t = load_image("rgba.gltf", data_uri("image/png", &rgba));
+    assert_eq!(t.texel(0, 0), srgb_rgb([90, 180, 250]));
+    // Grey: replicated to RGB.
+    let grey = encode_png(2, 1, &[33, 222], image::ExtendedColorType::L8);
+    let t = load_image("grey.gltf", data_uri("image/png", &grey));
+    assert_eq!(t.texel(1, 0), srgb_rgb([222; 3]));
+}
+
+#[test]
+fn textures_with_material_overrides() {
+    let dir = tempfile::tempdir().unwrap();
+    // Every texel ≤ sRGB 188 (linear ≈ 0.503).
+    let texels = [[188u8, 100, 50], [20, 188, 0], [0, 0, 188], [188, 188, 188]];
+    let max = srgb8(188);
+    let mut b = GltfBuilder::new();
+    let t = b.texture_png("dim", 2, 2, &texels, Wrap::Repeat, Wrap::Repeat);
+    let (p, i) = shapes::quad(Vec3::new(-1.0, 0.0, 1.0), Vec3::X * 2.0, Vec3::NEG_Z * 2.0);
+    for (k, name) in ["Lam", "LamAlbedo", "Pho", "PhoDiffuse", "Glassy", "Mirror"]
+        .iter()
+        .enumerate()
+    {
+        let mut m = MaterialDesc::lambert(name, [1.0; 3]).with_base_color_texture(t);
+        if *name == "Glassy" {
+            m.transmission = 1.0;
+        }
+        let m = b.material(m);
+        let mesh = b.add_mesh(name, &p, &i, None, Some(m));
+        b.node(
+            NodeDesc::new(name)
+                .with_mesh(mesh)
+                .with_translation(Vec3::new(0.0, k as f32, 0.0)),
+        );
+        b.texcoords(mesh, &QUAD_UV.map(Vec2::from));
+    }
+    b.camera_look_at("Cam", Vec3::new(0.0, 3.0, 9.0), Vec3::ZERO, Vec3::Y, 0.8, None);
+    b.write_gltf(&dir.path().join("o.gltf")).unwrap();
+    let sections = |phong_specular: f32| {
+        format!(
+            r#"gltf = "o.gltf"
+[materials.Lam]
+kind = "lambert"
+[materials.LamAlbedo]
+kind = "lambert"
+albedo = 0.3
+[materials.Pho]
+kind = "phong"
+specular = {phong_specular}
+exponent = 10
+[materials.PhoDiffuse]
+kind = "phong"
+diffuse = 0.2
+specular = 0.3
+exponent = 10
+[materials.Mirror]
+kind = "mirror"
+"#
+        )
+    };
+    // 1 × 0.503 + 0.45 ≤ 1: energy conserving although the factor alone (1) would not be.
+    let s = load_ok(&write(dir.path(), "o.toml", &sections(0.45)));
+    let tex = |name: &str| s.materials[material_index(&s, name) as usize].base_color_texture;
+    assert_eq!(tex("Lam"), Some(0));
+    assert_eq!(tex("Pho"), Some(0));
+    assert_eq!(s.textures.len(), 1, "one texture shared by every material");
+    assert_eq!(s.textures[0].max_texel(), Vec3::splat(max));
+    for name in ["LamAlbedo", "PhoDiffuse", "Glassy", "Mirror"] {
+        assert_eq!(tex(name), None, "{name}");
+    }
+    let warned: Vec<_> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("baseColorTexture ignored"))
+        .collect();
+    assert_eq!(warned.len(), 1, "{:?}", s.warnings);
+    assert!(warned[0].contains("material 'Glassy'"), "{}", warned[0]);
+    // Triangles get uvs exactly when their material uses the texture.
+    for t in &s.triangles {
+        let m = &s.materials[t.material as usize];
+        assert_eq!(t.uv.is_some(), m.base_color_texture.is_some(), "{}", m.name);
+    }
+    let centre = Some(Vec2::new(0.25, 0.25)); // texel (0, 0)
+    let t00 = srgb_rgb(texels[0]);
+    assert_eq!(
+        s.bsdf_at(material_index(&s, "Lam"), centre),
+        Some(Bsdf::Lambert { albedo: t00 })
+    );
+    assert_eq!(
+        s.bsdf_at(material_index(&s, "Pho"), centre),
+        Some(Bsdf::Phong {
+            diffuse: t00,
+            specular: Vec3::splat(0.45),
+            exponent: 10.0
+        })
+    );
+    assert_eq!(
+        s.bsdf_at(material_index(&s, "LamAlbedo"), centre),
+        Some(Bsdf::Lambert {
+            albedo: Vec3::splat(0.3)
+        })
+    );
+    assert_eq!(
+        s.bsdf_at(material_index(&s, "Glassy"), centre),
+        Some(Bsdf::Glass {
+            ior: 1.5,
+            tint: Vec3::ONE
+        })
+    );
+    // 0.503 + 0.55 > 1.
+    let e = load_err(&write(dir.path(), "o.toml", &sections(0.55)));
+    assert!(
+        e.contains("o.toml")
+            && e.contains("[materials.Pho]: diffuse × brightest base colour texel + specular")
+            && e.contains("not energy conserving"),
+        "{e}"
+    );
+}
+
+/// Flipping bytes inside an embedded PNG gives an error or a scene, never a panic.
+#[test]
+fn corrupted_images_never_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = textured_scene().to_glb_bytes();
+    let at = glb.windows(8).position(|w| w == b"\x89PNG\r\n\x1a\n").unwrap();
+    let png_len = 120.min(glb.len() - at);
+    let path = dir.path().join("img.glb");
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut rand = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for round in 0..300 {
+        let mut bytes = glb.clone();
+        for _ in 0..1 + rand() % 3 {
+            let k = at + (rand() % png_len as u64) as usize;
+            bytes[k] = (rand() & 0xff) as u8;
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let r = std::panic::catch_unwind(|| load_scene(&path));
+        match r {
+            Err(_) => panic!("panic on corrupted image (round {round})"),
+            Ok(Ok(s)) => assert!(s.textures.iter().all(|t| t.max_texel().cmple(Vec3::ONE).all())),
+            Ok(Err(e)) => assert!(e.to_string().contains("img.glb"), "{e}"),
+        }
+    }
 }

@@ -6,7 +6,7 @@ use crate::{
     media,
 };
 use beamlight_scene::{Rgb, Scene, bsdf::Material, rng::Sampler, scene::MediumId};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Null-interface crossings after which a ray is given up on (guards against pathological,
 /// e.g. self-overlapping, boundary meshes; a sane scene never gets close).
@@ -24,6 +24,8 @@ pub struct SurfaceHit {
     pub ns: Vec3,
     pub tri: u32,
     pub material: u32,
+    /// Texture coordinates, interpolated from the triangle's (only textured materials have them).
+    pub uv: Option<Vec2>,
 }
 
 pub struct TraceScene {
@@ -80,6 +82,7 @@ impl TraceScene {
             ns,
             tri: h.tri,
             material: t.material,
+            uv: t.uv_at(h.b1, h.b2),
         }
     }
 

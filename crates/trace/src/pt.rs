@@ -132,7 +132,7 @@ pub fn radiance(
             l += beta * mat.emission * w;
         }
 
-        let Some(bsdf) = &mat.bsdf else {
+        let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
             // Invisible medium boundary: switch media and carry on in the same direction.
             if let Some(iface) = tri.interface {
                 medium = iface.entered(sh.ng, d);

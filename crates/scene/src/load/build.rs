@@ -1,6 +1,7 @@
 //! Assembling the [`Scene`]: node traversal, materials (+ overrides), triangles, camera, lights,
 //! render settings.
 use super::gltf_read::{self, GltfDoc};
+use super::images::TextureLoader;
 use super::media::{self, MediaPlan, RegionInstance};
 use super::sidecar::{MaterialToml, Rgb3, Sidecar};
 use super::{Src, TomlSrc};
@@ -9,7 +10,7 @@ use crate::camera::Camera;
 use crate::light::PunctualLight;
 use crate::scene::{RenderSettings, Triangle};
 use crate::{Rgb, Scene, SceneError};
-use glam::{Mat3, Mat4, Quat, Vec3};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 use gltf::json::{self, mesh::Mode, mesh::Semantic, validation::Checked};
 use std::path::Path;
 use toml::Spanned;
@@ -34,15 +35,18 @@ pub(super) fn build_scene(
     let root = &doc.root;
     feature_warnings(&src, root, &mut warnings);
     let trav = traverse(&src, root, &mut warnings)?;
-    let mut materials = convert_materials(&src, root, &mut warnings)?;
+    let (mut materials, mut base_tex) = convert_materials(&src, root, &mut warnings)?;
+    let mut loader = TextureLoader::new(&src, &doc);
     if let Some((t, sc)) = toml {
-        apply_overrides(t, sc, root, &mut materials)?;
+        apply_overrides(t, sc, root, &mut materials, &mut base_tex, &mut loader, &mut warnings)?;
     }
+    let tex_coord = attach_textures(&src, root, &mut materials, &base_tex, &mut loader, &mut warnings)?;
+    let textures = loader.textures;
     let plan = match toml {
         Some((t, sc)) => media::plan_media(t, sc, root, &trav)?,
         None => MediaPlan::empty(root.meshes.len()),
     };
-    let mut geo = build_triangles(&src, &doc, &trav, &plan, &mut materials, &mut warnings)?;
+    let mut geo = build_triangles(&src, &doc, &trav, &plan, &mut materials, &tex_coord, &mut warnings)?;
     let (media, global_medium) = media::finish_media(toml.map(|(t, _)| t), root, plan, &mut geo, &mut warnings)?;
 
     let mut lights = Vec::new();
@@ -58,6 +62,7 @@ pub(super) fn build_scene(
         triangles: geo.triangles,
         meshes,
         materials,
+        textures,
         media,
         global_medium,
         lights,
@@ -255,9 +260,23 @@ fn check_color(what: &str, c: [f32; 3], max: Option<f32>) -> Result<Rgb, String>
     Ok(Vec3::from(c))
 }
 
-fn convert_materials(src: &Src, root: &json::Root, warnings: &mut Vec<String>) -> Result<Vec<Material>, SceneError> {
+/// A glTF material's `baseColorTexture`: the glTF texture and the `TEXCOORD_n` set it reads.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BaseTex {
+    texture: usize,
+    tex_coord: u32,
+}
+
+/// The glTF materials, with the base colour factor in their BSDFs, and each one's
+/// `baseColorTexture` (attached later by [`attach_textures`], after the overrides).
+fn convert_materials(
+    src: &Src,
+    root: &json::Root,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<Material>, Vec<Option<BaseTex>>), SceneError> {
     let f = src.name();
     let mut out = Vec::with_capacity(root.materials.len());
+    let mut base_tex = Vec::with_capacity(root.materials.len());
     for (i, m) in root.materials.iter().enumerate() {
         let label = material_label(root, i);
         let err = |what: String| src.err(format!("{label}: {what}"));
@@ -275,17 +294,29 @@ fn convert_materials(src: &Src, root: &json::Root, warnings: &mut Vec<String>) -
         }
         let emission = check_color("emissiveFactor", m.emissive_factor.0, None).map_err(err)? * strength;
         let transmission = ext.and_then(|e| e.transmission.as_ref());
-        let textured = pbr.base_color_texture.is_some()
-            || pbr.metallic_roughness_texture.is_some()
-            || m.normal_texture.is_some()
-            || m.occlusion_texture.is_some()
-            || m.emissive_texture.is_some()
-            || transmission.is_some_and(|t| t.transmission_texture.is_some());
-        if textured {
+        let ignored: Vec<&str> = [
+            ("metallicRoughnessTexture", pbr.metallic_roughness_texture.is_some()),
+            ("normalTexture", m.normal_texture.is_some()),
+            ("occlusionTexture", m.occlusion_texture.is_some()),
+            ("emissiveTexture", m.emissive_texture.is_some()),
+            (
+                "transmissionTexture",
+                transmission.is_some_and(|t| t.transmission_texture.is_some()),
+            ),
+        ]
+        .into_iter()
+        .filter_map(|(name, present)| present.then_some(name))
+        .collect();
+        if !ignored.is_empty() {
             warnings.push(format!(
-                "{f}: {label}: textures ignored (the constant factors are used)"
+                "{f}: {label}: textures ignored: {} (the constant factors are used)",
+                ignored.join(", ")
             ));
         }
+        base_tex.push(pbr.base_color_texture.as_ref().map(|info| BaseTex {
+            texture: info.index.value(),
+            tex_coord: info.tex_coord,
+        }));
         if !matches!(m.alpha_mode, Checked::Valid(json::material::AlphaMode::Opaque)) {
             warnings.push(format!("{f}: {label}: alphaMode ignored (treated as OPAQUE)"));
         }
@@ -315,12 +346,53 @@ fn convert_materials(src: &Src, root: &json::Root, warnings: &mut Vec<String>) -
             bsdf: Some(bsdf),
             emission,
             double_sided: m.double_sided,
+            base_color_texture: None,
         });
     }
-    Ok(out)
+    Ok((out, base_tex))
 }
 
-fn apply_overrides(t: &TomlSrc, sc: &Sidecar, root: &json::Root, materials: &mut [Material]) -> Result<(), SceneError> {
+/// Attaches the base-colour textures the materials still use after the overrides (Lambert
+/// and Phong; glass keeps its factor-only tint, with a warning), decoding their images.
+/// Returns, per glTF material, the `TEXCOORD_n` set its triangles need.
+fn attach_textures(
+    src: &Src,
+    root: &json::Root,
+    materials: &mut [Material],
+    base_tex: &[Option<BaseTex>],
+    loader: &mut TextureLoader,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Option<u32>>, SceneError> {
+    let mut tex_coord = vec![None; base_tex.len()];
+    for (i, bt) in base_tex.iter().enumerate() {
+        let Some(bt) = bt else { continue };
+        let label = material_label(root, i);
+        match materials[i].bsdf {
+            Some(Bsdf::Lambert { .. } | Bsdf::Phong { .. }) => {
+                let t = loader.load(bt.texture, &format!("{label} baseColorTexture"), warnings)?;
+                materials[i].base_color_texture = t;
+                if t.is_some() {
+                    tex_coord[i] = Some(bt.tex_coord);
+                }
+            }
+            _ => warnings.push(format!(
+                "{}: {label}: baseColorTexture ignored (glass is tinted by baseColorFactor only)",
+                src.name()
+            )),
+        }
+    }
+    Ok(tex_coord)
+}
+
+fn apply_overrides(
+    t: &TomlSrc,
+    sc: &Sidecar,
+    root: &json::Root,
+    materials: &mut [Material],
+    base_tex: &mut [Option<BaseTex>],
+    loader: &mut TextureLoader,
+    warnings: &mut Vec<String>,
+) -> Result<(), SceneError> {
     for (name, o) in &sc.materials {
         let targets: Vec<usize> = (0..root.materials.len())
             .filter(|&i| root.materials[i].name.as_deref() == Some(name.get_ref()))
@@ -338,17 +410,30 @@ fn apply_overrides(t: &TomlSrc, sc: &Sidecar, root: &json::Root, materials: &mut
             ));
         }
         for i in targets {
-            override_material(t, name, o, &mut materials[i])?;
+            let who = format!("{} baseColorTexture", material_label(root, i));
+            // The brightest texel the Phong diffuse colour can be multiplied by (1 untextured).
+            let mut max_texel = |bt: BaseTex| -> Result<Rgb, SceneError> {
+                Ok(match loader.load(bt.texture, &who, warnings)? {
+                    Some(t) => loader.textures[t as usize].max_texel(),
+                    None => Vec3::ONE,
+                })
+            };
+            override_material(t, name, o, &mut materials[i], &mut base_tex[i], &mut max_texel)?;
         }
     }
     Ok(())
 }
 
+/// Applies one `[materials.NAME]` section to `m`. `base_tex` is the glTF base-colour texture,
+/// kept only where the textured base colour still applies (Lambert without `albedo`, Phong
+/// without `diffuse`).
 fn override_material(
     t: &TomlSrc,
     name: &Spanned<String>,
     o: &MaterialToml,
     m: &mut Material,
+    base_tex: &mut Option<BaseTex>,
+    max_texel: &mut dyn FnMut(BaseTex) -> Result<Rgb, SceneError>,
 ) -> Result<(), SceneError> {
     let section = format!("[materials.{}]", name.get_ref());
     let bad = |span: std::ops::Range<usize>, what: String| t.err_at(span, format!("{section}: {what}"));
@@ -402,14 +487,20 @@ fn override_material(
                     return Err(bad(kind.span(), "give either 'albedo' or 'diffuse', not both".into()));
                 }
                 let albedo = match o.albedo.as_ref().or(o.diffuse.as_ref()) {
-                    Some(v) => color(v, "albedo", Some(1.0))?,
+                    Some(v) => {
+                        *base_tex = None;
+                        color(v, "albedo", Some(1.0))?
+                    }
                     None => base,
                 };
                 Bsdf::Lambert { albedo }
             }
             "phong" => {
                 let diffuse = match &o.diffuse {
-                    Some(v) => color(v, "diffuse", Some(1.0))?,
+                    Some(v) => {
+                        *base_tex = None;
+                        color(v, "diffuse", Some(1.0))?
+                    }
                     None => base,
                 };
                 let specular = match &o.specular {
@@ -430,13 +521,19 @@ fn override_material(
                         return Err(bad(kind.span(), "kind = \"phong\" needs 'exponent'".into()));
                     }
                 };
-                let sum = diffuse + specular;
+                // With a base-colour texture the diffuse colour is diffuse × texel ≤ diffuse ×
+                // the brightest texel.
+                let (kd, what) = match *base_tex {
+                    Some(bt) => (diffuse * max_texel(bt)?, "diffuse × brightest base colour texel"),
+                    None => (diffuse, "diffuse"),
+                };
+                let sum = kd + specular;
                 if sum.max_element() > 1.0 + 1e-6 {
                     let span = o.specular.as_ref().map_or(kind.span(), |s| s.span());
                     return Err(bad(
                         span,
                         format!(
-                            "diffuse + specular = [{}, {}, {}] exceeds 1: not energy conserving",
+                            "{what} + specular = [{}, {}, {}] exceeds 1: not energy conserving",
                             sum.x, sum.y, sum.z
                         ),
                     ));
@@ -452,6 +549,7 @@ fn override_material(
                     Some(v) => color(v, "reflectance", Some(1.0))?,
                     None => Vec3::ONE,
                 };
+                *base_tex = None;
                 Bsdf::Mirror { reflectance }
             }
             _ => {
@@ -466,6 +564,7 @@ fn override_material(
                     Some(v) => color(v, "tint", Some(1.0))?,
                     None => Vec3::ONE,
                 };
+                *base_tex = None;
                 Bsdf::Glass { ior, tint }
             }
         };
@@ -497,6 +596,7 @@ fn build_triangles(
     trav: &Traversal,
     plan: &MediaPlan,
     materials: &mut Vec<Material>,
+    tex_coord: &[Option<u32>],
     warnings: &mut Vec<String>,
 ) -> Result<Geometry, SceneError> {
     let root = &doc.root;
@@ -512,6 +612,8 @@ fn build_triangles(
     struct Prim {
         positions: Vec<Vec3>,
         normals: Option<Vec<Vec3>>,
+        /// Only for primitives whose material has a base-colour texture.
+        uvs: Option<Vec<Vec2>>,
         tris: Vec<[u32; 3]>,
         material: Option<usize>,
     }
@@ -567,6 +669,39 @@ fn build_triangles(
                     }
                     None => None,
                 };
+                let uvs = match p.material.and_then(|m| tex_coord.get(m.value()).copied().flatten()) {
+                    None => None,
+                    Some(set) => match p.attributes.get(&Checked::Valid(Semantic::TexCoords(set))) {
+                        Some(acc) => {
+                            let uv: Vec<Vec2> = doc
+                                .read_texcoords(src, &format!("{what} TEXCOORD_{set}"), acc.value())?
+                                .into_iter()
+                                .map(Vec2::from)
+                                .collect();
+                            if uv.len() != positions.len() {
+                                return Err(src.err(format!(
+                                    "{what}: TEXCOORD_{set} has {} elements but POSITION has {}",
+                                    uv.len(),
+                                    positions.len()
+                                )));
+                            }
+                            if let Some(v) = uv.iter().position(|t| !t.is_finite()) {
+                                return Err(
+                                    src.err(format!("{what}: vertex {v} has a non-finite TEXCOORD_{set} {}", uv[v]))
+                                );
+                            }
+                            Some(uv)
+                        }
+                        None => {
+                            // What WebGL viewers do: a missing attribute reads as (0, 0).
+                            warnings.push(format!(
+                                "{f}: {what}: no TEXCOORD_{set} for the base colour texture of {}; uv (0, 0) is used",
+                                material_label(root, p.material.map_or(0, |m| m.value()))
+                            ));
+                            Some(vec![Vec2::ZERO; positions.len()])
+                        }
+                    },
+                };
                 let indices: Vec<u32> = match p.indices {
                     Some(acc) => doc.read_indices(src, &format!("{what} indices"), acc.value())?,
                     None => (0..positions.len() as u32).collect(),
@@ -604,6 +739,7 @@ fn build_triangles(
                 prims.push(Prim {
                     positions,
                     normals,
+                    uvs,
                     tris,
                     material: p.material.map(|m| m.value()),
                 });
@@ -636,6 +772,7 @@ fn build_triangles(
                         bsdf: None,
                         emission: Vec3::ZERO,
                         double_sided: false,
+                        base_color_texture: None,
                     });
                     (materials.len() - 1) as u32
                 }),
@@ -647,6 +784,7 @@ fn build_triangles(
                         }),
                         emission: Vec3::ZERO,
                         double_sided: false,
+                        base_color_texture: None,
                     });
                     (materials.len() - 1) as u32
                 }),
@@ -684,9 +822,14 @@ fn build_triangles(
                     let n = [wn[a as usize], wn[b as usize], wn[c as usize]];
                     if n.contains(&Vec3::ZERO) { None } else { Some(n) }
                 });
+                let uv = prim
+                    .uvs
+                    .as_ref()
+                    .map(|uv| [uv[a as usize], uv[b as usize], uv[c as usize]]);
                 triangles.push(Triangle {
                     p,
                     n,
+                    uv,
                     material,
                     interface: None,
                     mesh: mesh_i as u32,

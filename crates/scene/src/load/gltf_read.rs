@@ -167,7 +167,15 @@ fn parse_glb<'a>(src: &Src, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
     Ok((json, bin))
 }
 
-fn decode_data_uri(src: &Src, label: &str, uri: &str) -> Result<Vec<u8>, SceneError> {
+/// The media type of a `data:` URI (`image/png` in `data:image/png;base64,...`), lower case;
+/// empty when it has none.
+pub(super) fn data_uri_media_type(uri: &str) -> String {
+    let header = uri.split(',').next().unwrap_or("");
+    let header = header.strip_prefix("data:").unwrap_or(header);
+    header.split(';').next().unwrap_or("").trim().to_ascii_lowercase()
+}
+
+pub(super) fn decode_data_uri(src: &Src, label: &str, uri: &str) -> Result<Vec<u8>, SceneError> {
     let Some(comma) = uri.find(',') else {
         return Err(src.err(format!("{label}: malformed data URI (no ',')")));
     };
@@ -181,7 +189,7 @@ fn decode_data_uri(src: &Src, label: &str, uri: &str) -> Result<Vec<u8>, SceneEr
 }
 
 /// Decodes `%XX` escapes in a relative URI (e.g. `%20` for a space).
-fn percent_decode(uri: &str) -> String {
+pub(super) fn percent_decode(uri: &str) -> String {
     let b = uri.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
@@ -401,6 +409,44 @@ impl GltfDoc {
         let (_, bytes, count) = self.accessor_bytes(src, what, index, Type::Vec3, &[ComponentType::F32])?;
         let f = |i: usize| f32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().unwrap());
         Ok((0..count).map(|i| [f(3 * i), f(3 * i + 1), f(3 * i + 2)]).collect())
+    }
+
+    /// A `VEC2` texture-coordinate accessor: `FLOAT`, or normalized `UNSIGNED_BYTE` /
+    /// `UNSIGNED_SHORT` (divided by 255 / 65535), as the glTF specification allows for
+    /// `TEXCOORD_n`.
+    pub fn read_texcoords(&self, src: &Src, what: &str, index: usize) -> Result<Vec<[f32; 2]>, SceneError> {
+        let allowed = [ComponentType::F32, ComponentType::U8, ComponentType::U16];
+        let (ct, bytes, count) = self.accessor_bytes(src, what, index, Type::Vec2, &allowed)?;
+        if ct != ComponentType::F32 && !self.root.accessors[index].normalized {
+            return Err(src.err(format!(
+                "{what}: accessor {index} is {} VEC2 but not normalized (integer texture coordinates need KHR_mesh_quantization, which is not supported)",
+                component_name(ct)
+            )));
+        }
+        let sz = component_size(ct);
+        let c = |i: usize| -> f32 {
+            let b = &bytes[i * sz..];
+            match ct {
+                ComponentType::U8 => b[0] as f32 / 255.0,
+                ComponentType::U16 => u16::from_le_bytes([b[0], b[1]]) as f32 / 65535.0,
+                _ => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            }
+        };
+        Ok((0..count).map(|i| [c(2 * i), c(2 * i + 1)]).collect())
+    }
+
+    /// All bytes of buffer view `view` (an image), checked against its buffer.
+    pub fn view_bytes(&self, src: &Src, what: &str, view: usize) -> Result<&[u8], SceneError> {
+        let len = self
+            .root
+            .buffer_views
+            .get(view)
+            .ok_or_else(|| src.err(format!("{what}: bufferView {view} does not exist")))?
+            .byte_length
+            .0;
+        let len = usize::try_from(len).map_err(|_| src.err(format!("{what}: bufferView {view} is too large")))?;
+        let (bytes, _) = self.view_range(src, what, view, 0, 1, len, false)?;
+        Ok(&bytes[..len])
     }
 
     /// A `SCALAR` accessor of unsigned byte/short/int (indices).

@@ -2,9 +2,10 @@
 //!
 //! Every problem in the input becomes a [`SceneError`] naming the file (and, for TOML, the line
 //! and column; for glTF, the element such as `mesh 'Statue' primitive 0`). Loading never panics
-//! on bad input. Harmless things that are ignored (textures, animations, skins, morph targets,
-//! unsupported optional extensions, light `range`, degenerate triangles…) produce one entry
-//! each in [`Scene::warnings`].
+//! on bad input. Harmless things that are ignored (textures other than the base colour's,
+//! images in unsupported formats, animations, skins, morph targets, unsupported optional
+//! extensions, light `range`, degenerate triangles…) produce one entry each in
+//! [`Scene::warnings`].
 //!
 //! # The sidecar (`.toml`)
 //!
@@ -43,11 +44,14 @@
 //! ## Material overrides (`[materials.NAME]`)
 //! `NAME` is a glTF material name (every material of that name is overridden; an unknown name
 //! is an error listing the available names). Keys:
-//! * `kind = "lambert"`: `albedo` (or `diffuse`), default the glTF base colour.
-//! * `kind = "phong"`: `diffuse` (default the glTF base colour), `specular` and `exponent`
-//!   (both required); `diffuse + specular` must be ≤ 1 in every channel (energy conservation).
-//! * `kind = "mirror"`: `reflectance`, default 1.
-//! * `kind = "glass"`: `ior` (> 0, default 1.5), `tint` (default 1).
+//! * `kind = "lambert"`: `albedo` (or `diffuse`), default the glTF base colour — including its
+//!   `baseColorTexture`; an explicit `albedo` wins and the texture is dropped.
+//! * `kind = "phong"`: `diffuse` (default the glTF base colour, texture included; an explicit
+//!   `diffuse` drops the texture), `specular` and `exponent` (both required);
+//!   `diffuse + specular` must be ≤ 1 in every channel (energy conservation), where with a
+//!   texture `diffuse` is the base colour factor × the texture's brightest texel.
+//! * `kind = "mirror"`: `reflectance`, default 1 (no texture).
+//! * `kind = "glass"`: `ior` (> 0, default 1.5), `tint` (default 1; no texture).
 //! * Any kind, or no `kind` at all (then only these two keys may appear): `emission = [r, g, b]`
 //!   replaces the glTF emission, `double_sided = true|false` replaces `doubleSided`.
 //!
@@ -85,11 +89,32 @@
 //!   transpose and normalised; without, triangles are flat shaded. A transform with negative
 //!   determinant swaps two vertices so the geometric normal keeps the orientation the glTF
 //!   spec defines.
-//! * Materials: `baseColorFactor` rgb (must lie in [0, 1]) → Lambert albedo (textures
-//!   ignored with one warning per material, alpha ignored); `emissiveFactor ×
-//!   KHR_materials_emissive_strength` (finite, ≥ 0) → emission; `doubleSided`;
-//!   `KHR_materials_transmission` factor > 0 → `Glass { ior: KHR_materials_ior (≥ 1, default
-//!   1.5), tint: base colour }` (a factor below 1 is treated as 1, with a warning).
+//! * Materials: `baseColorFactor` rgb (must lie in [0, 1]) × `baseColorTexture` → Lambert
+//!   albedo (alpha ignored); `emissiveFactor × KHR_materials_emissive_strength` (finite, ≥ 0)
+//!   → emission; `doubleSided`; `KHR_materials_transmission` factor > 0 → `Glass { ior:
+//!   KHR_materials_ior (≥ 1, default 1.5), tint: baseColorFactor }` (a factor below 1 is
+//!   treated as 1, with a warning; glass ignores `baseColorTexture`, with a warning). The
+//!   other textures (metallic-roughness, normal, occlusion, emissive, transmission) are
+//!   ignored with one warning per material; their images are never read.
+//! * Base colour textures ([`crate::texture`] has the conventions): the factor stays in the
+//!   material's BSDF and [`crate::bsdf::Material::base_color_texture`] indexes
+//!   [`Scene::textures`]; [`Scene::bsdf_at`] multiplies them at a hit. Images come from a
+//!   `bufferView` (GLB or embedded buffer), a base64 `data:` URI, or a file relative to the
+//!   glTF (`%XX`-escaped); PNG (8 or 16 bits per channel, grey or RGB, alpha dropped) and
+//!   JPEG are decoded, with the format taken from the bytes. They are sRGB-encoded and
+//!   decoded to linear RGB with the exact sRGB EOTF. Another declared type (`mimeType` or
+//!   data URI type, e.g. `image/ktx2`, `image/webp`) or content (WebP, KTX2, …) is a warning
+//!   and the factor is used alone. A missing file or an image that does not decode is an
+//!   error naming the material and the image (`image 2 'wood.png': cannot decode: …`);
+//!   images larger than 16384 pixels a side or 2²⁶ texels are errors too. The sampler's
+//!   `wrapS`/`wrapT` are used (default `REPEAT`); its filters are not (always bilinear).
+//!   Materials using the same image with the same wrap modes share one texture.
+//! * Texture coordinates: `TEXCOORD_n` as the `baseColorTexture`'s `texCoord` says, read only
+//!   for primitives whose material uses a texture (only their triangles get
+//!   [`crate::scene::Triangle::uv`]): `FLOAT VEC2`, or normalized `UNSIGNED_BYTE` /
+//!   `UNSIGNED_SHORT` (c / 255, c / 65535; not normalized is an error); non-finite values are
+//!   errors. A primitive without that attribute gets uv (0, 0) everywhere (what WebGL viewers
+//!   show), with a warning.
 //! * Cameras: perspective only (an orthographic camera that is asked for, or the only kind
 //!   there is, is an error; an orthographic one skipped by the default choice is a warning).
 //!   The camera node's world transform with scale removed (forward −Z and up +Y are kept,
@@ -114,6 +139,7 @@ use std::path::{Path, PathBuf};
 
 mod build;
 mod gltf_read;
+mod images;
 mod media;
 mod sidecar;
 
