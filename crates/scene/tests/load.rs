@@ -110,7 +110,7 @@ fn check_feature_scene(s: &Scene) {
             tint: Vec3::ONE
         })
     );
-    // The cube has no material: it gets the default grey Lambert.
+    // The cube has no material: it gets glTF's default material (base colour 1) as Lambert.
     let cube = s
         .triangles
         .iter()
@@ -119,7 +119,7 @@ fn check_feature_scene(s: &Scene) {
     assert_eq!(
         s.materials[cube.material as usize].bsdf,
         Some(Bsdf::Lambert {
-            albedo: Vec3::splat(0.8)
+            albedo: Vec3::splat(1.0)
         })
     );
     // Flat floor facing +Y, no shading normals; ball has normals, pointing outward.

@@ -19,8 +19,9 @@ use toml::Spanned;
 pub(super) const MAX_RESOLUTION: u32 = 16384;
 /// Image height when the sidecar does not give one.
 pub(super) const DEFAULT_HEIGHT: u32 = 512;
-/// Albedo of the material given to primitives without one.
-const DEFAULT_ALBEDO: f32 = 0.8;
+/// Albedo of the material given to primitives without one: the glTF default material has
+/// baseColorFactor 1, which maps to a white Lambert surface.
+const DEFAULT_ALBEDO: f32 = 1.0;
 /// Vertical field of view of the camera made up when the glTF has none.
 const DEFAULT_YFOV_DEGREES: f32 = 40.0;
 

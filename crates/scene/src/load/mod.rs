@@ -72,7 +72,8 @@
 //!   (parity test from a point on its surface), else the global medium, else vacuum.
 //! * A region primitive without a glTF material becomes an invisible, index-matched boundary
 //!   (`Material { bsdf: None, .. }`, named `"<medium boundary>"`); elsewhere a primitive without
-//!   a material gets the `"<default>"` Lambert material of albedo 0.8.
+//!   a material gets the `"<default>"` Lambert material of albedo 1 (glTF's default material has
+//!   baseColorFactor 1).
 //! * `density = { grid = "file.bgrid", bounds = [[x0,y0,z0],[x1,y1,z1]] }` makes the medium
 //!   heterogeneous (format: [`crate::medium::parse_grid`]); `bounds` defaults to the bounding
 //!   box of the region mesh, or of all triangles for a global medium.
