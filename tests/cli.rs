@@ -250,3 +250,17 @@ fn time_budget_renders_whole_passes() {
     assert!(spp >= 1, "at least one pass must run");
     assert!(img.pixels.iter().all(|p| p.is_finite()));
 }
+
+#[test]
+fn a_scene_without_lights_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let gltf = dir.path().join("dark.gltf");
+    std::fs::write(&gltf, r#"{"asset":{"version":"2.0"}}"#).unwrap();
+    let o = render(
+        &gltf,
+        &dir.path().join("d.exr"),
+        &["--spp", "1", "--width", "4", "--height", "4"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no light sources"), "{}", stderr(&o));
+}

@@ -16,7 +16,10 @@ pub fn files() -> Vec<(String, Vec<u8>)> {
         ),
         ("assets/scenes/furnace.gltf".into(), furnace_gltf().into_bytes()),
         ("assets/scenes/furnace.toml".into(), FURNACE_TOML.as_bytes().to_vec()),
-        ("assets/scenes/cornell_smoke.toml".into(), CORNELL_SMOKE_TOML.as_bytes().to_vec()),
+        (
+            "assets/scenes/cornell_smoke.toml".into(),
+            CORNELL_SMOKE_TOML.as_bytes().to_vec(),
+        ),
         ("assets/scenes/smoke.bgrid".into(), smoke_grid()),
     ]
 }

@@ -159,6 +159,12 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     let width = args.width.unwrap_or(scene.render.width);
     let height = args.height.unwrap_or(scene.render.height);
     let ts = TraceScene::new(scene);
+    if ts.lights.is_empty() {
+        eprintln!(
+            "warning: {}: the scene has no light sources (no emissive material, no KHR_lights_punctual light): the image will be black",
+            args.scene.display()
+        );
+    }
     eprintln!(
         "beamlight: {} ({} triangles), {width}x{height}, method {}, backend {backend}",
         args.scene.display(),
