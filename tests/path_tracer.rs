@@ -100,15 +100,7 @@ fn absorption_matches_closed_form() {
     let sigma_a = Rgb::new(0.2, 0.7, 1.5);
     let (w, h, fov) = (10u32, 8u32, 80f32);
     let mut s = empty_scene(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), fov, w, h);
-    let wall = add_material(
-        &mut s,
-        material(
-            "wall",
-            Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
-            Rgb::ONE,
-            false,
-        ),
-    );
+    let wall = add_material(&mut s, emitter("wall", 1.0));
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
     s.media.push(homogeneous(Rgb::ZERO, sigma_a, 0.0));
     s.global_medium = Some(0);
@@ -240,15 +232,7 @@ fn area_light_on_lambert_floor_matches_polygon_formula() {
     let albedo = 0.6f32;
     let floor = add_material(&mut s, lambert("floor", albedo));
     let radiance = 5.0f32;
-    let light = add_material(
-        &mut s,
-        material(
-            "light",
-            Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
-            Rgb::splat(radiance),
-            false,
-        ),
-    );
+    let light = add_material(&mut s, emitter("light", radiance));
     add_quad(
         &mut s,
         Vec3::new(-10.0, 0.0, 10.0),
@@ -364,15 +348,7 @@ fn constant_grid_matches_homogeneous_medium() {
     let make = |grid: bool| {
         let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 16, 16);
         let wall = add_material(&mut s, lambert("wall", 0.7));
-        let light = add_material(
-            &mut s,
-            material(
-                "light",
-                Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
-                Rgb::splat(8.0),
-                false,
-            ),
-        );
+        let light = add_material(&mut s, emitter("light", 8.0));
         add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
         add_quad(
             &mut s,
@@ -410,15 +386,7 @@ fn bounded_media_switch_at_invisible_boundaries() {
     use beamlight_scene::{gltf_writer::shapes, scene::MediumInterface};
     let (w, h, fov) = (8u32, 8u32, 70f32);
     let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.2, 0.1, -1.0), fov, w, h);
-    let wall = add_material(
-        &mut s,
-        material(
-            "wall",
-            Some(beamlight_scene::bsdf::Bsdf::Lambert { albedo: Rgb::ZERO }),
-            Rgb::ONE,
-            false,
-        ),
-    );
+    let wall = add_material(&mut s, emitter("wall", 1.0));
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
     let boundary = add_material(&mut s, material("boundary", None, Rgb::ZERO, false));
     let boxes = [

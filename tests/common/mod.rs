@@ -22,6 +22,16 @@ pub fn material(name: &str, bsdf: Option<Bsdf>, emission: Rgb, double_sided: boo
     }
 }
 
+/// A black (non-reflecting) surface emitting `radiance` from its front face.
+pub fn emitter(name: &str, radiance: f32) -> Material {
+    material(
+        name,
+        Some(Bsdf::Lambert { albedo: Rgb::ZERO }),
+        Rgb::splat(radiance),
+        false,
+    )
+}
+
 pub fn lambert(name: &str, albedo: f32) -> Material {
     material(
         name,

@@ -503,58 +503,34 @@ impl GltfBuilder {
         let mut meshes = Vec::new();
         for m in &self.meshes {
             let mut attributes = Map::new();
-            let pos_bytes: Vec<u8> = m
-                .positions
-                .iter()
-                .flat_map(|p| p.to_array())
-                .flat_map(f32::to_le_bytes)
-                .collect();
-            let view = push_view(&mut bin, &pos_bytes, ARRAY_BUFFER);
+            // A FLOAT accessor over `values` (`count` elements of `kind`), in its own view.
+            let mut float_accessor = |values: Vec<f32>, count: usize, kind: &str| {
+                let bytes: Vec<u8> = values.into_iter().flat_map(f32::to_le_bytes).collect();
+                let view = push_view(&mut bin, &bytes, ARRAY_BUFFER);
+                accessors.push(json!({ "bufferView": view, "componentType": FLOAT, "count": count, "type": kind }));
+                accessors.len() - 1
+            };
+            let flat = |v: &[Vec3]| v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>();
+            let position = float_accessor(flat(&m.positions), m.positions.len(), "VEC3");
+            attributes.insert("POSITION".into(), json!(position));
+            if let Some(normals) = &m.normals {
+                attributes.insert(
+                    "NORMAL".into(),
+                    json!(float_accessor(flat(normals), normals.len(), "VEC3")),
+                );
+            }
+            if let Some(uv) = &m.texcoords {
+                let values = uv.iter().flat_map(|p| p.to_array()).collect();
+                attributes.insert("TEXCOORD_0".into(), json!(float_accessor(values, uv.len(), "VEC2")));
+            }
+            // glTF requires min/max on POSITION accessors.
             let (lo, hi) = m.positions.iter().fold(
                 (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
                 |(lo, hi), p| (lo.min(*p), hi.max(*p)),
             );
-            let mut acc = json!({
-                "bufferView": view,
-                "componentType": FLOAT,
-                "count": m.positions.len(),
-                "type": "VEC3",
-            });
             if !m.positions.is_empty() && lo.is_finite() && hi.is_finite() {
-                acc["min"] = vec3_json(lo);
-                acc["max"] = vec3_json(hi);
-            }
-            accessors.push(acc);
-            attributes.insert("POSITION".into(), json!(accessors.len() - 1));
-            if let Some(normals) = &m.normals {
-                let bytes: Vec<u8> = normals
-                    .iter()
-                    .flat_map(|p| p.to_array())
-                    .flat_map(f32::to_le_bytes)
-                    .collect();
-                let view = push_view(&mut bin, &bytes, ARRAY_BUFFER);
-                accessors.push(json!({
-                    "bufferView": view,
-                    "componentType": FLOAT,
-                    "count": normals.len(),
-                    "type": "VEC3",
-                }));
-                attributes.insert("NORMAL".into(), json!(accessors.len() - 1));
-            }
-            if let Some(uv) = &m.texcoords {
-                let bytes: Vec<u8> = uv
-                    .iter()
-                    .flat_map(|p| p.to_array())
-                    .flat_map(f32::to_le_bytes)
-                    .collect();
-                let view = push_view(&mut bin, &bytes, ARRAY_BUFFER);
-                accessors.push(json!({
-                    "bufferView": view,
-                    "componentType": FLOAT,
-                    "count": uv.len(),
-                    "type": "VEC2",
-                }));
-                attributes.insert("TEXCOORD_0".into(), json!(accessors.len() - 1));
+                accessors[position]["min"] = vec3_json(lo);
+                accessors[position]["max"] = vec3_json(hi);
             }
             let mut prim = Map::new();
             prim.insert("attributes".into(), Value::Object(attributes));
