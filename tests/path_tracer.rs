@@ -278,6 +278,84 @@ fn area_light_on_lambert_floor_matches_polygon_formula() {
     });
 }
 
+/// A glossy (modified Phong) floor under a quad light, seen around the light's highlight,
+/// against direct numerical integration over the light's area with an independently written
+/// Phong formula. A wrong Phong normalisation, or a sampling pdf that disagrees with the one
+/// MIS uses, shows up here as bias.
+#[test]
+fn area_light_on_phong_floor_matches_quadrature() {
+    let (w, h, fov) = (8u32, 8u32, 30f32);
+    let eye = Vec3::new(0.0, 0.6, 2.5);
+    let mut s = empty_scene(eye, Vec3::new(0.0, 0.0, 1.4), fov, w, h);
+    let (kd, ks, exponent) = (0.2f64, 0.6f64, 40f64);
+    let floor = add_material(
+        &mut s,
+        material(
+            "floor",
+            Some(beamlight_scene::bsdf::Bsdf::Phong {
+                diffuse: Rgb::splat(kd as f32),
+                specular: Rgb::splat(ks as f32),
+                exponent: exponent as f32,
+            }),
+            Rgb::ZERO,
+            false,
+        ),
+    );
+    let radiance = 4.0f64;
+    let light = add_material(&mut s, emitter("light", radiance as f32));
+    add_quad(
+        &mut s,
+        Vec3::new(-10.0, 0.0, 10.0),
+        Vec3::new(20.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -20.0),
+        floor,
+    );
+    let (c, u, v) = (
+        Vec3::new(-0.3, 1.0, -0.4),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.6),
+    );
+    add_quad(&mut s, c, u, v, light);
+    let cam = s.camera.clone();
+    let film = render_pt(s, 1024, 16, None);
+    let (pixel_n, light_n) = (4, 64);
+    let to64 = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
+    let (c, u, v, eye64) = (to64(c), to64(u), to64(v), to64(eye));
+    let area = 0.5 * 0.6;
+    assert_pixels_match(&film, 4.0, 0.01, "phong floor", |x, y| {
+        let mut expected = 0.0;
+        for j in 0..pixel_n {
+            for i in 0..pixel_n {
+                let f = glam::Vec2::new(
+                    (x as f32 + (i as f32 + 0.5) / pixel_n as f32) / w as f32,
+                    (y as f32 + (j as f32 + 0.5) / pixel_n as f32) / h as f32,
+                );
+                let d = to64(cam.direction(f, 1.0));
+                let t = -eye64[1] / d[1];
+                let p = [eye64[0] + d[0] * t, 0.0, eye64[2] + d[2] * t];
+                let wo = [-d[0], -d[1], -d[2]];
+                let r = [-wo[0], wo[1], -wo[2]]; // mirror direction of wo about +y
+                let mut l = 0.0;
+                for b in 0..light_n {
+                    for a in 0..light_n {
+                        let (sa, sb) = ((a as f64 + 0.5) / light_n as f64, (b as f64 + 0.5) / light_n as f64);
+                        let q = [0, 1, 2].map(|k| c[k] + u[k] * sa + v[k] * sb);
+                        let to = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                        let d2 = to[0] * to[0] + to[1] * to[1] + to[2] * to[2];
+                        let wi = to.map(|x| x / d2.sqrt());
+                        let cos_alpha = (wi[0] * r[0] + wi[1] * r[1] + wi[2] * r[2]).max(0.0);
+                        let brdf = kd / PI + ks * (exponent + 2.0) / (2.0 * PI) * cos_alpha.powf(exponent);
+                        // cos at the floor and at the light (facing down) are both wi.y.
+                        l += brdf * radiance * wi[1] * wi[1] / d2 * area / (light_n * light_n) as f64;
+                    }
+                }
+                expected += l / (pixel_n * pixel_n) as f64;
+            }
+        }
+        [expected; 3]
+    });
+}
+
 /// Point and glTF spot lights on a Lambert floor: L = ρ/π · I(ω) · cosθ / d².
 #[test]
 fn punctual_lights_on_lambert_floor() {
