@@ -220,6 +220,27 @@ fn polygon_irradiance(p: [f64; 3], n: [f64; 3], poly: &[[f64; 3]], radiance: f64
     (0.5 * radiance * sum).abs()
 }
 
+/// Adds a large floor (y = 0) of material `floor` and a 0.5 × 0.6 black quad light at height 1
+/// facing down, emitting `radiance`; returns the light's corner and edges (c, u, v).
+fn floor_under_quad_light(s: &mut beamlight_scene::Scene, floor: u32, radiance: f32) -> (Vec3, Vec3, Vec3) {
+    let light = add_material(s, emitter("light", radiance));
+    add_quad(
+        s,
+        Vec3::new(-10.0, 0.0, 10.0),
+        Vec3::new(20.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -20.0),
+        floor,
+    );
+    // Front face = u × v = −y.
+    let (c, u, v) = (
+        Vec3::new(-0.3, 1.0, -0.4),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.6),
+    );
+    add_quad(s, c, u, v, light);
+    (c, u, v)
+}
+
 /// A Lambert floor lit by a square area light (direct only through geometry: the light is
 /// black, the floor is the only reflector), against Lambert's polygon irradiance formula.
 /// Exercises light sampling, BSDF sampling and their MIS weights together.
@@ -232,21 +253,7 @@ fn area_light_on_lambert_floor_matches_polygon_formula() {
     let albedo = 0.6f32;
     let floor = add_material(&mut s, lambert("floor", albedo));
     let radiance = 5.0f32;
-    let light = add_material(&mut s, emitter("light", radiance));
-    add_quad(
-        &mut s,
-        Vec3::new(-10.0, 0.0, 10.0),
-        Vec3::new(20.0, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -20.0),
-        floor,
-    );
-    // Emitter at height 1 facing down (front = u × v = −y).
-    let (c, u, v) = (
-        Vec3::new(-0.3, 1.0, -0.4),
-        Vec3::new(0.5, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 0.6),
-    );
-    add_quad(&mut s, c, u, v, light);
+    let (c, u, v) = floor_under_quad_light(&mut s, floor, radiance);
     let cam = s.camera.clone();
     let film = render_pt(s, 1024, 7, None);
     let poly: Vec<[f64; 3]> = [c, c + u, c + u + v, c + v]
@@ -302,20 +309,7 @@ fn area_light_on_phong_floor_matches_quadrature() {
         ),
     );
     let radiance = 4.0f64;
-    let light = add_material(&mut s, emitter("light", radiance as f32));
-    add_quad(
-        &mut s,
-        Vec3::new(-10.0, 0.0, 10.0),
-        Vec3::new(20.0, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -20.0),
-        floor,
-    );
-    let (c, u, v) = (
-        Vec3::new(-0.3, 1.0, -0.4),
-        Vec3::new(0.5, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 0.6),
-    );
-    add_quad(&mut s, c, u, v, light);
+    let (c, u, v) = floor_under_quad_light(&mut s, floor, radiance as f32);
     let cam = s.camera.clone();
     let film = render_pt(s, 1024, 16, None);
     let (pixel_n, light_n) = (4, 64);
