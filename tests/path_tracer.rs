@@ -628,3 +628,16 @@ fn extreme_media_stay_finite() {
         }
     }
 }
+
+/// A camera inside the glass sphere of the furnace sees the equilibrium radiance of a
+/// dielectric, n² times the outside one: 1.5² · 2 = 4.5 (radiance / n² is what is conserved).
+#[test]
+fn camera_inside_glass_sees_n_squared_radiance() {
+    let mut s = glass_furnace(8, 48, false);
+    s.camera = empty_scene(Vec3::new(-0.3, 0.05, -0.25), Vec3::new(0.5, 0.2, -1.0), 90.0, 8, 8).camera;
+    let ts_medium = beamlight_trace::TraceScene::new(s.clone()).camera_medium;
+    assert_eq!(ts_medium, Some(1), "the camera must start in the sphere's medium");
+    let film = render_pt(s, 1024, 17, None);
+    let mean = film.image().mean();
+    assert!((mean - Rgb::splat(4.5)).abs().max_element() < 0.05, "mean {mean}");
+}
