@@ -7,6 +7,7 @@ pub mod components;
 pub mod film;
 pub mod output;
 pub mod progressive;
+pub mod radius;
 
 pub use film::{Film, Image};
 pub use progressive::{Budget, Method, RenderOptions, RenderResult, render};
