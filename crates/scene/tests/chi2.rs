@@ -18,7 +18,7 @@ use glam::{DVec3, Vec2, Vec3};
 const N: usize = 1_000_000;
 
 /// Number of statistical tests (chi-square and binomial) in this file; keep in sync.
-const NUM_TESTS: usize = 34;
+const NUM_TESTS: usize = 38;
 
 fn alpha() -> f64 {
     sidak(0.01, NUM_TESTS)
@@ -199,6 +199,122 @@ fn chi2_distribution_1d() {
     let expected: Vec<f64> = weights.iter().map(|&w| w as f64 / total * N as f64).collect();
     let r = chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("Distribution1D: {e}"));
     eprintln!("Distribution1D: {r:?}");
+}
+
+/// Equiangular sampling along a line: bins uniform in the angle subtended at `c` (computed here
+/// in f64), expected counts from integrating `equiangular_pdf` over each bin's t-interval.
+fn chi2_equiangular(name: &str, o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, seed: u32) {
+    let (o64, d64, c64) = (o.as_dvec3(), d.as_dvec3(), c.as_dvec3());
+    let delta = (c64 - o64).dot(d64);
+    let h = (c64 - (o64 + d64 * delta)).length();
+    let (a0, a1) = ((t0 as f64 - delta).atan2(h), (t1 as f64 - delta).atan2(h));
+    let bins = 40;
+    let edges: Vec<f64> = (0..=bins)
+        .map(|k| match k {
+            0 => t0 as f64,
+            k if k == bins => t1 as f64,
+            k => delta + h * (a0 + (a1 - a0) * k as f64 / bins as f64).tan(),
+        })
+        .collect();
+    let mut pdf = |t: f64| equiangular_pdf(o, d, t0, t1, c, t as f32) as f64;
+    let mut expected: Vec<f64> = edges
+        .windows(2)
+        .map(|e| {
+            if e[1].is_finite() {
+                adaptive(
+                    &mut pdf,
+                    e[0],
+                    e[1],
+                    Tol {
+                        abs: 1e-9,
+                        rel: 1e-7,
+                        depth: 30,
+                    },
+                )
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    if !t1.is_finite() {
+        let rest: f64 = expected.iter().sum();
+        *expected.last_mut().unwrap() = (1.0 - rest).max(0.0);
+    } else {
+        let total: f64 = expected.iter().sum();
+        assert!((total - 1.0).abs() < 1e-4, "{name}: pdf integrates to {total}");
+    }
+    let mut observed = vec![0.0; bins];
+    for i in 0..N {
+        let u = Sampler::new(seed, 0, i as u32).next_1d();
+        let (t, p) = equiangular(o, d, t0, t1, c, u);
+        assert!(t >= t0 && t <= t1, "{name}: t = {t} outside [{t0}, {t1}]");
+        assert!(
+            close(p, equiangular_pdf(o, d, t0, t1, c, t), 1e-3),
+            "{name}: pdf mismatch at t = {t}"
+        );
+        let k = edges.partition_point(|&e| e <= t as f64).clamp(1, bins) - 1;
+        observed[k] += 1.0;
+    }
+    let expected: Vec<f64> = expected.iter().map(|e| e * N as f64).collect();
+    let r = chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("{name}: {e}"));
+    eprintln!("{name}: {r:?}");
+}
+
+#[test]
+fn chi2_equiangular_sampling() {
+    let d = dir(0.3, -0.2, 0.9);
+    let o = Vec3::new(0.1, 0.4, -0.3);
+    // The closest approach inside the interval, at one end, outside it, and an infinite ray.
+    chi2_equiangular("equiangular, apex inside", o, d, 0.0, 3.0, Vec3::new(0.6, 0.9, 1.0), 40);
+    chi2_equiangular(
+        "equiangular, close point",
+        o,
+        d,
+        0.5,
+        2.5,
+        o + d * 1.0 + Vec3::new(0.02, 0.0, 0.0),
+        41,
+    );
+    chi2_equiangular(
+        "equiangular, apex outside",
+        o,
+        d,
+        2.0,
+        5.0,
+        Vec3::new(0.0, 0.0, 0.0),
+        42,
+    );
+    chi2_equiangular(
+        "equiangular, infinite",
+        o,
+        d,
+        0.0,
+        f32::INFINITY,
+        Vec3::new(1.0, 1.0, 1.0),
+        43,
+    );
+}
+
+#[test]
+fn equiangular_is_finite_for_a_point_on_the_line() {
+    let (o, d) = (Vec3::ZERO, Vec3::X);
+    for (i, c) in [
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        for k in 0..1000 {
+            let u = Sampler::new(44, i as u32, k).next_1d();
+            let (t, p) = equiangular(o, d, 0.0, 1.0, c, u);
+            assert!(
+                (0.0..=1.0).contains(&t) && p.is_finite() && p >= 0.0,
+                "c {c}: t {t} pdf {p}"
+            );
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
