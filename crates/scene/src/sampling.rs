@@ -187,6 +187,48 @@ impl Distribution1D {
     }
 }
 
+/// Equiangular sampling (Kulla & Fajardo 2012) of a distance `t ∈ [t0, t1]` along the line
+/// `o + t·d` (`d` unit, `t1` may be ∞) with density ∝ 1 / |o + t·d − c|²: uniform in the angle
+/// the line subtends at `c`. This is the VRL paper's inverse-squared-distance sampling of a
+/// point on a ray light as seen from a shading point. Returns `(t, pdf)`.
+///
+/// A point `c` on the line itself would make the density singular; its distance to the line
+/// is clamped to a tiny fraction of the problem's scale, so the pdf stays finite.
+pub fn equiangular(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, u: f32) -> (f32, f32) {
+    let (delta, h, theta0, theta1) = equiangular_frame(o, d, t0, t1, c);
+    let t = (delta + h * (theta0 + u * (theta1 - theta0)).tan()).clamp(t0, t1);
+    (t, equiangular_density(t, delta, h, theta0, theta1))
+}
+
+/// The density with which [`equiangular`] produces `t` (0 outside `[t0, t1]`).
+pub fn equiangular_pdf(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, t: f32) -> f32 {
+    if !(t >= t0 && t <= t1) {
+        return 0.0;
+    }
+    let (delta, h, theta0, theta1) = equiangular_frame(o, d, t0, t1, c);
+    equiangular_density(t, delta, h, theta0, theta1)
+}
+
+/// (t of the closest approach to `c`, its distance h, and the angles of the interval's ends).
+fn equiangular_frame(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3) -> (f32, f32, f32, f32) {
+    let delta = (c - o).dot(d);
+    let scale = (c - o)
+        .abs()
+        .max_element()
+        .max(t0.abs())
+        .max(if t1.is_finite() { t1.abs() } else { 0.0 });
+    let h = (c - (o + d * delta)).length().max(scale * 1e-6).max(f32::MIN_POSITIVE);
+    let theta0 = (t0 - delta).atan2(h);
+    let theta1 = (t1 - delta).atan2(h);
+    (delta, h, theta0, theta1)
+}
+
+fn equiangular_density(t: f32, delta: f32, h: f32, theta0: f32, theta1: f32) -> f32 {
+    let x = t - delta;
+    let pdf = h / ((theta1 - theta0) * (h * h + x * x));
+    if pdf.is_finite() { pdf } else { 0.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -316,46 +358,4 @@ mod tests {
         assert_eq!(d.total, 100_001_000.0);
         assert_eq!(d.cdf[d.len()], 1.0);
     }
-}
-
-/// Equiangular sampling (Kulla & Fajardo 2012) of a distance `t ∈ [t0, t1]` along the line
-/// `o + t·d` (`d` unit, `t1` may be ∞) with density ∝ 1 / |o + t·d − c|²: uniform in the angle
-/// the line subtends at `c`. This is the VRL paper's inverse-squared-distance sampling of a
-/// point on a ray light as seen from a shading point. Returns `(t, pdf)`.
-///
-/// A point `c` on the line itself would make the density singular; its distance to the line
-/// is clamped to a tiny fraction of the problem's scale, so the pdf stays finite.
-pub fn equiangular(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, u: f32) -> (f32, f32) {
-    let (delta, h, theta0, theta1) = equiangular_frame(o, d, t0, t1, c);
-    let t = (delta + h * (theta0 + u * (theta1 - theta0)).tan()).clamp(t0, t1);
-    (t, equiangular_density(t, delta, h, theta0, theta1))
-}
-
-/// The density with which [`equiangular`] produces `t` (0 outside `[t0, t1]`).
-pub fn equiangular_pdf(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, t: f32) -> f32 {
-    if !(t >= t0 && t <= t1) {
-        return 0.0;
-    }
-    let (delta, h, theta0, theta1) = equiangular_frame(o, d, t0, t1, c);
-    equiangular_density(t, delta, h, theta0, theta1)
-}
-
-/// (t of the closest approach to `c`, its distance h, and the angles of the interval's ends).
-fn equiangular_frame(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3) -> (f32, f32, f32, f32) {
-    let delta = (c - o).dot(d);
-    let scale = (c - o)
-        .abs()
-        .max_element()
-        .max(t0.abs())
-        .max(if t1.is_finite() { t1.abs() } else { 0.0 });
-    let h = (c - (o + d * delta)).length().max(scale * 1e-6).max(f32::MIN_POSITIVE);
-    let theta0 = (t0 - delta).atan2(h);
-    let theta1 = (t1 - delta).atan2(h);
-    (delta, h, theta0, theta1)
-}
-
-fn equiangular_density(t: f32, delta: f32, h: f32, theta0: f32, theta1: f32) -> f32 {
-    let x = t - delta;
-    let pdf = h / ((theta1 - theta0) * (h * h + x * x));
-    if pdf.is_finite() { pdf } else { 0.0 }
 }
