@@ -51,7 +51,7 @@ mod tests {
             let mut product = 1.0f64;
             let mut k = 1u64;
             for i in 1..=40u64 {
-                while k <= m * i - 1 {
+                while k < m * i {
                     product *= (k as f64 + alpha) / k as f64;
                     k += 1;
                 }
