@@ -3,6 +3,7 @@
 pub mod bvh;
 pub mod context;
 pub mod geometry;
+pub mod light_paths;
 pub mod lights;
 pub mod media;
 pub mod pt;

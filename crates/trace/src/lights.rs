@@ -31,8 +31,24 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// A sampled start of a light path: a point, a direction and the flux the path carries.
+#[derive(Clone, Copy, Debug)]
+pub struct EmissionSample {
+    pub p: Vec3,
+    /// Unit direction the light leaves in.
+    pub dir: Vec3,
+    /// Flux carried by the path: emitted radiance (or intensity) × cos / (pdf of position,
+    /// direction and light choice), so the mean over paths is the scene's total emitted power.
+    pub power: Rgb,
+    /// For area lights: the emitting triangle, whose surface the path must leave cleanly.
+    pub surface: Option<(u32, Vec3)>,
+}
+
 pub struct LightSampler {
     lights: Vec<LightRef>,
+    /// Bounding sphere of the scene (directional lights enter through its cross-section).
+    center: Vec3,
+    radius: f32,
     select: sampling::Distribution1D,
     /// Selection probability of each scene triangle (0 for non-emitters), for MIS on hits.
     tri_pmf: Vec<f32>,
@@ -41,11 +57,13 @@ pub struct LightSampler {
 impl LightSampler {
     pub fn new(scene: &Scene) -> Self {
         let (lo, hi) = scene.bounds();
-        let radius = if lo.is_finite() && hi.is_finite() {
-            0.5 * (hi - lo).length()
+        let finite = lo.is_finite() && hi.is_finite();
+        let radius = if finite {
+            (0.5 * (hi - lo).length()).max(1e-3)
         } else {
             1.0
         };
+        let center = if finite { 0.5 * (lo + hi) } else { Vec3::ZERO };
         let mut lights = Vec::new();
         let mut power = Vec::new();
         for (i, t) in scene.triangles.iter().enumerate() {
@@ -69,6 +87,8 @@ impl LightSampler {
         }
         Self {
             lights,
+            center,
+            radius,
             select,
             tri_pmf,
         }
@@ -154,6 +174,84 @@ impl LightSampler {
                 }
             }
         }
+    }
+
+    /// Starts a light path: a light chosen in proportion to its power, a point on it and a
+    /// direction (cosine-weighted for area lights, uniform within the cone for point and spot
+    /// lights, a uniform point on the scene's cross-section for directional lights).
+    pub fn sample_emission(&self, scene: &Scene, s: &mut Sampler) -> Option<EmissionSample> {
+        let u_select = s.next_1d();
+        let (u_pos, u_dir) = (s.next_2d(), s.next_2d());
+        if self.is_empty() {
+            return None;
+        }
+        let (k, pmf) = self.select.sample(u_select);
+        let sample = match self.lights[k] {
+            LightRef::Triangle(ti) => {
+                let t = &scene.triangles[ti as usize];
+                let m = &scene.materials[t.material as usize];
+                let b = sampling::uniform_triangle(u_pos);
+                let p = t.p[0] * (1.0 - b.x - b.y) + t.p[1] * b.x + t.p[2] * b.y;
+                let mut n = t.cross().normalize();
+                // Double-sided emitters pick a side with probability ½ (hence the factor 2).
+                let mut sides = 1.0;
+                if m.double_sided {
+                    sides = 2.0;
+                    if u_dir.x < 0.5 {
+                        n = -n;
+                    }
+                }
+                let u_dir = glam::Vec2::new(if m.double_sided { (u_dir.x * 2.0) % 1.0 } else { u_dir.x }, u_dir.y);
+                let local = sampling::cosine_hemisphere(u_dir);
+                let dir = beamlight_scene::frame::Frame::from_normal(n).to_world(local);
+                // Le cosθ / (pdf_area · pdf_dir) = Le · π · area.
+                let power = m.emission * (std::f32::consts::PI * t.area() * sides / pmf);
+                EmissionSample {
+                    p,
+                    dir,
+                    power,
+                    surface: Some((ti, n)),
+                }
+            }
+            LightRef::Punctual(li) => match &scene.lights[li as usize] {
+                PunctualLight::Point { position, intensity } => EmissionSample {
+                    p: *position,
+                    dir: sampling::uniform_sphere(u_dir),
+                    power: *intensity / (sampling::uniform_sphere_pdf() * pmf),
+                    surface: None,
+                },
+                l @ PunctualLight::Spot {
+                    position,
+                    direction,
+                    cos_outer,
+                    ..
+                } => {
+                    let local = sampling::uniform_cone(u_dir, *cos_outer);
+                    let dir = beamlight_scene::frame::Frame::from_normal(*direction).to_world(local);
+                    let pdf = sampling::uniform_cone_pdf(*cos_outer);
+                    EmissionSample {
+                        p: *position,
+                        dir,
+                        power: l.intensity_towards(dir) / (pdf * pmf),
+                        surface: None,
+                    }
+                }
+                PunctualLight::Directional { direction, irradiance } => {
+                    // Enter through a disc of the bounding sphere's radius, one radius upstream.
+                    let frame = beamlight_scene::frame::Frame::from_normal(*direction);
+                    let d = sampling::concentric_disk(u_pos) * self.radius;
+                    let p = self.center - *direction * self.radius + frame.s * d.x + frame.t * d.y;
+                    let area = std::f32::consts::PI * self.radius * self.radius;
+                    EmissionSample {
+                        p,
+                        dir: *direction,
+                        power: *irradiance * (area / pmf),
+                        surface: None,
+                    }
+                }
+            },
+        };
+        (sample.power.is_finite() && sample.power.max_element() > 0.0).then_some(sample)
     }
 
     /// Solid-angle pdf with which `sample` from `from` would have produced the point `q` on

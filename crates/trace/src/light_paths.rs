@@ -1,0 +1,273 @@
+//! Light tracing: photon random walks from the emitters, recorded as the light sets the
+//! many-light estimators gather from (VRLs, VPLs, caustic photons, photon beams).
+//!
+//! Flux bookkeeping: a path starts with the flux of its [`EmissionSample`] (so the mean over
+//! paths is the scene's emitted power) and is multiplied by each interaction's weight. Every
+//! record stores the flux *arriving* at it: a segment's flux is the flux entering it (before
+//! any attenuation along it), a vertex's the flux incident on it. Averaging a set's records
+//! over the number of paths traced (`LightSet::paths`) gives unbiased flux estimates.
+//!
+//! The records are plain `#[repr(C)]` data in flat arrays, laid out for the GPU (each 3-vector
+//! is followed by a 4-byte scalar, which is how WGSL packs `vec3<f32>` + `f32`).
+use crate::{
+    TraceScene,
+    context::MAX_CROSSINGS,
+    geometry::{interpolation_error, offset_ray_origin},
+    lights::EmissionSample,
+    media::{self, MediumEvent},
+};
+use beamlight_scene::{Rgb, bsdf::TransportMode, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, scene::MediumId};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// A straight piece of a light path inside one medium: a virtual ray light, or a photon beam.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct LightSegment {
+    pub origin: [f32; 3],
+    pub length: f32,
+    pub dir: [f32; 3],
+    /// Index into `Scene::media`.
+    pub medium: u32,
+    /// Flux entering the segment (before transmittance along it).
+    pub power: [f32; 3],
+    pub _pad: u32,
+}
+
+/// A light-path vertex on a diffuse or glossy surface (a VPL; the centre of a VSL), or a
+/// caustic photon.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct SurfaceVertex {
+    pub pos: [f32; 3],
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Shading normal, on the side the light arrived from.
+    pub normal: [f32; 3],
+    /// Index into `Scene::triangles` (for texture lookups and offsets).
+    pub tri: u32,
+    /// Unit direction towards where the light came from.
+    pub wi: [f32; 3],
+    pub u: f32,
+    /// Flux arriving at the vertex.
+    pub power: [f32; 3],
+    pub v: f32,
+}
+
+/// Everything one pass's light paths produced.
+#[derive(Clone, Debug, Default)]
+pub struct LightSet {
+    /// Number of light paths traced (the M of the estimators), including ones that left nothing.
+    pub paths: u32,
+    /// Every path segment through a medium (virtual ray lights).
+    pub vrls: Vec<LightSegment>,
+    /// Every diffuse or glossy surface vertex (virtual point lights / VSL centres).
+    pub vpls: Vec<SurfaceVertex>,
+    /// Diffuse/glossy vertices reached from a light through ≥ 1 specular bounce and nothing else.
+    pub caustic_photons: Vec<SurfaceVertex>,
+    /// Medium segments reached from a light directly or through specular bounces only.
+    pub photon_beams: Vec<LightSegment>,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct LightTracerSettings {
+    /// Scattering events after which Russian roulette starts.
+    pub rr_depth: u32,
+    /// Maximum number of scattering events per path (`None`: unbounded).
+    pub max_depth: Option<u32>,
+}
+
+impl Default for LightTracerSettings {
+    fn default() -> Self {
+        Self {
+            rr_depth: 3,
+            max_depth: None,
+        }
+    }
+}
+
+/// Traces `paths` light paths for pass `pass`; path `k` uses the random stream
+/// `(seed, pass, k)`, so a pass is reproducible and can be split across threads or machines.
+pub fn trace_light_paths(
+    ts: &TraceScene,
+    settings: &LightTracerSettings,
+    paths: u32,
+    seed: u32,
+    pass: u32,
+) -> LightSet {
+    let mut set = LightSet {
+        paths,
+        ..Default::default()
+    };
+    for k in 0..paths {
+        let mut s = Sampler::new(seed ^ 0x9e37_79b9, pass, k);
+        if let Some(e) = ts.lights.sample_emission(&ts.scene, &mut s) {
+            trace_one(ts, settings, e, &mut s, &mut set);
+        }
+    }
+    set
+}
+
+fn segment(origin: Vec3, dir: Vec3, length: f32, medium: u32, power: Rgb) -> LightSegment {
+    LightSegment {
+        origin: origin.into(),
+        length,
+        dir: dir.into(),
+        medium,
+        power: power.into(),
+        _pad: 0,
+    }
+}
+
+fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample, s: &mut Sampler, set: &mut LightSet) {
+    let scene = &ts.scene;
+    let max_depth = settings.max_depth.unwrap_or(u32::MAX);
+    let mut power = e.power;
+    let mut d = e.dir;
+    let (mut o, mut medium): (Vec3, MediumId) = match e.surface {
+        Some((tri, n)) => {
+            let t = &scene.triangles[tri as usize];
+            // Bound for any point of the triangle: Σ|bᵢ pᵢ| ≤ maxᵢ |pᵢ| per axis.
+            let err = (0..3)
+                .map(|i| interpolation_error(&t.p, (i == 1) as u8 as f32, (i == 2) as u8 as f32))
+                .fold(Vec3::ZERO, Vec3::max);
+            let o = offset_ray_origin(e.p, err, n);
+            (o, ts.medium_at(o))
+        }
+        None => (e.p, ts.medium_at(e.p)),
+    };
+    // Still on a light → (specular)* prefix: beams and caustic photons come from such paths.
+    let mut specular_chain = true;
+    let mut had_specular = false;
+    let mut depth = 0u32;
+    let mut crossings = 0u32;
+    loop {
+        let hit = ts.intersect(o, d, f32::INFINITY);
+        let tmax = hit.map_or(f32::INFINITY, |(h, _)| h.t);
+        if let Some(mi) = medium {
+            let m = &scene.media[mi as usize];
+            let event = media::sample_distance(m, o, d, tmax, power, s);
+            let length = match event {
+                MediumEvent::Scatter { t, .. } => t,
+                MediumEvent::Pass { .. } => tmax,
+            };
+            if length.is_finite() && length > 0.0 {
+                let seg = segment(o, d, length, mi, power);
+                set.vrls.push(seg);
+                if specular_chain {
+                    set.photon_beams.push(seg);
+                }
+            }
+            match event {
+                MediumEvent::Scatter { t, weight } => {
+                    power *= weight;
+                    depth += 1;
+                    if depth > max_depth || power == Rgb::ZERO {
+                        return;
+                    }
+                    let p = o + d * t;
+                    // HG is symmetric, so the same sampling serves light paths: `wo` points back
+                    // towards where the light came from.
+                    let ps = HenyeyGreenstein { g: m.g }.sample(-d, s.next_2d());
+                    power *= ps.weight;
+                    specular_chain = false;
+                    o = p;
+                    d = ps.wi;
+                    if !roulette(&mut power, e.power, depth, settings.rr_depth, s) {
+                        return;
+                    }
+                    continue;
+                }
+                MediumEvent::Pass { weight } => {
+                    power *= weight;
+                    if power == Rgb::ZERO {
+                        return;
+                    }
+                }
+            }
+        }
+        let Some((_, sh)) = hit else { return };
+        let tri = &scene.triangles[sh.tri as usize];
+        let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
+            if let Some(iface) = tri.interface {
+                medium = iface.entered(sh.ng, d);
+            }
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                return;
+            }
+            o = sh.spawn(d);
+            continue;
+        };
+        let wo = -d;
+        // Shading normal on the side the light arrives from.
+        let ns = if sh.ns.dot(wo) < 0.0 { -sh.ns } else { sh.ns };
+        if !bsdf.is_delta() {
+            let uv = sh.uv.unwrap_or_default();
+            let vertex = SurfaceVertex {
+                pos: sh.p.into(),
+                material: sh.material,
+                normal: ns.into(),
+                tri: sh.tri,
+                wi: wo.into(),
+                u: uv.x,
+                power: power.into(),
+                v: uv.y,
+            };
+            set.vpls.push(vertex);
+            if specular_chain && had_specular {
+                set.caustic_photons.push(vertex);
+            }
+        }
+        depth += 1;
+        if depth > max_depth {
+            return;
+        }
+        let frame = Frame::from_normal(sh.ns);
+        let Some(bs) = bsdf.sample_mode(frame.to_local(wo), s.next_2d(), s.next_1d(), TransportMode::Importance) else {
+            return;
+        };
+        let wi = frame.to_world(bs.wi);
+        let transmissive = matches!(bsdf, beamlight_scene::bsdf::Bsdf::Glass { .. });
+        if !transmissive && sh.ng.dot(wi) * sh.ng.dot(wo) <= 0.0 {
+            return;
+        }
+        // Adjoint BSDFs with shading normals need Veach's correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|).
+        let correction = (wo.dot(sh.ns) * wi.dot(sh.ng)).abs() / (wo.dot(sh.ng) * wi.dot(sh.ns)).abs();
+        if !correction.is_finite() {
+            return;
+        }
+        power *= bs.weight * correction;
+        if bs.is_delta {
+            had_specular = true;
+        } else {
+            specular_chain = false;
+        }
+        if let Some(iface) = tri.interface {
+            medium = iface.entered(sh.ng, wi);
+        }
+        o = sh.spawn(wi);
+        d = wi;
+        if !roulette(&mut power, e.power, depth, settings.rr_depth, s) {
+            return;
+        }
+    }
+}
+
+/// Russian roulette for light paths: survival in proportion to the largest channel of the flux
+/// relative to its value at emission (the path's throughput), capped at 0.95 so that every
+/// path ends, as in the path tracer.
+fn roulette(power: &mut Rgb, emitted: Rgb, depth: u32, rr_depth: u32, s: &mut Sampler) -> bool {
+    if !power.is_finite() || *power == Rgb::ZERO {
+        return false;
+    }
+    if depth < rr_depth {
+        return true;
+    }
+    let q = (power.max_element() / emitted.max_element()).min(0.95);
+    if s.next_1d() >= q {
+        return false;
+    }
+    *power /= q;
+    true
+}

@@ -1,0 +1,160 @@
+//! Light tracing keeps its flux books: in a closed scene every emitted watt is eventually
+//! absorbed, so the flux the light set says was absorbed (at surfaces, from the VPLs; in media,
+//! by the track-length estimate along the VRLs) must add up to the emitted power.
+mod common;
+use beamlight_scene::{Rgb, bsdf::Bsdf, light::PunctualLight};
+use beamlight_trace::{
+    TraceScene,
+    light_paths::{LightSegment, LightSet, LightTracerSettings, SurfaceVertex, trace_light_paths},
+};
+use common::*;
+use glam::{DVec3, Vec3};
+
+const PATHS: u32 = 200_000;
+
+fn albedo_of(ts: &TraceScene, v: &SurfaceVertex) -> Rgb {
+    match ts.scene.materials[v.material as usize].bsdf {
+        Some(Bsdf::Lambert { albedo }) => albedo,
+        _ => panic!("test scenes use Lambert surfaces"),
+    }
+}
+
+/// Absorbed flux per path: (1 − ρ) of every VPL's incident flux plus σa · length of every VRL's
+/// entering flux (track length; valid for grey media, where distances are sampled analogously).
+/// (Summed in f64: millions of f32 additions would drift by a percent.)
+fn absorbed(ts: &TraceScene, set: &LightSet) -> Rgb {
+    let mut total = DVec3::ZERO;
+    for v in &set.vpls {
+        total += (Rgb::from(v.power) * (Rgb::ONE - albedo_of(ts, v))).as_dvec3();
+    }
+    for seg in &set.vrls {
+        total += (Rgb::from(seg.power) * ts.scene.media[seg.medium as usize].sigma_a * seg.length).as_dvec3();
+    }
+    (total / set.paths as f64).as_vec3()
+}
+
+/// A closed box (walls Lambert `albedo`) with a one-sided square emitter under its ceiling.
+fn closed_box(albedo: f32, radiance: f32) -> (beamlight_scene::Scene, f32) {
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.5), Vec3::ZERO, 60.0, 4, 4);
+    let wall = add_material(&mut s, lambert("wall", albedo));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    let light = add_material(&mut s, emitter("light", radiance));
+    add_quad(
+        &mut s,
+        Vec3::new(-0.25, 0.9, -0.25),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.5),
+        light,
+    );
+    let power = std::f32::consts::PI * radiance * 0.25;
+    (s, power)
+}
+
+#[test]
+fn record_layouts_are_gpu_friendly() {
+    assert_eq!(std::mem::size_of::<LightSegment>(), 48);
+    assert_eq!(std::mem::size_of::<SurfaceVertex>(), 64);
+}
+
+#[test]
+fn surfaces_absorb_all_emitted_power() {
+    for albedo in [0.0f32, 0.5, 0.9] {
+        let (s, power) = closed_box(albedo, 3.0);
+        let ts = TraceScene::new(s);
+        let set = trace_light_paths(&ts, &LightTracerSettings::default(), PATHS, 1, 0);
+        let got = absorbed(&ts, &set);
+        assert!(
+            ((got - Rgb::splat(power)) / power).abs().max_element() < 0.01,
+            "ρ {albedo}: absorbed {got}, emitted {power}"
+        );
+        assert!(set.vrls.is_empty() && set.photon_beams.is_empty() && set.caustic_photons.is_empty());
+    }
+}
+
+#[test]
+fn media_and_surfaces_absorb_all_emitted_power() {
+    for (sigma_s, sigma_a, g) in [(0.8f32, 0.3f32, 0.0f32), (2.0, 0.5, 0.7), (0.3, 1.5, -0.5)] {
+        let (mut s, power) = closed_box(0.6, 2.0);
+        s.media.push(homogeneous(Rgb::splat(sigma_s), Rgb::splat(sigma_a), g));
+        s.global_medium = Some(0);
+        let ts = TraceScene::new(s);
+        let set = trace_light_paths(&ts, &LightTracerSettings::default(), PATHS, 2, 0);
+        let got = absorbed(&ts, &set);
+        assert!(
+            ((got - Rgb::splat(power)) / power).abs().max_element() < 0.015,
+            "σs {sigma_s} σa {sigma_a} g {g}: absorbed {got}, emitted {power}"
+        );
+        // Photon beams are the first segments of each path (no specular surfaces here).
+        assert!(!set.photon_beams.is_empty() && set.photon_beams.len() <= PATHS as usize);
+        assert!(set.caustic_photons.is_empty());
+    }
+}
+
+#[test]
+fn point_lights_emit_four_pi_times_their_intensity() {
+    let (mut s, _) = closed_box(0.0, 0.0);
+    s.triangles.retain(|t| s.materials[t.material as usize].name != "light");
+    s.lights.push(PunctualLight::Point {
+        position: Vec3::new(0.2, -0.1, 0.3),
+        intensity: Rgb::new(1.0, 2.0, 0.5),
+    });
+    let ts = TraceScene::new(s);
+    let set = trace_light_paths(&ts, &LightTracerSettings::default(), PATHS, 3, 0);
+    let got = absorbed(&ts, &set);
+    let expected = Rgb::new(1.0, 2.0, 0.5) * 4.0 * std::f32::consts::PI;
+    assert!(
+        ((got - expected) / expected).abs().max_element() < 0.01,
+        "{got} vs {expected}"
+    );
+}
+
+#[test]
+fn caustic_photons_come_only_through_specular_chains() {
+    // A point light above a mirror, a diffuse floor below: photons reach the floor directly
+    // (VPLs, not caustics) and via the mirror (caustic photons).
+    let (mut s, _) = closed_box(0.5, 0.0);
+    s.triangles.retain(|t| s.materials[t.material as usize].name != "light");
+    let mirror = add_material(
+        &mut s,
+        material("mirror", Some(Bsdf::Mirror { reflectance: Rgb::ONE }), Rgb::ZERO, false),
+    );
+    add_quad(
+        &mut s,
+        Vec3::new(-0.5, 0.95, -0.5),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        mirror,
+    );
+    s.lights.push(PunctualLight::Point {
+        position: Vec3::new(0.0, 0.5, 0.0),
+        intensity: Rgb::ONE,
+    });
+    let ts = TraceScene::new(s);
+    let set = trace_light_paths(&ts, &LightTracerSettings::default(), 20_000, 4, 0);
+    assert!(!set.caustic_photons.is_empty());
+    // Every caustic photon is also a VPL, and there are far fewer of them.
+    assert!(set.caustic_photons.len() < set.vpls.len() / 2);
+    for p in &set.caustic_photons {
+        assert!(set.vpls.contains(p));
+        // The light below the mirror reaches it going up, so caustics arrive from above.
+        assert!(p.wi[1] > 0.0, "caustic photon arriving from below: {p:?}");
+    }
+}
+
+#[test]
+fn double_sided_emitters_emit_from_both_faces() {
+    let (mut s, one_side) = closed_box(0.3, 2.0);
+    for m in &mut s.materials {
+        if m.name == "light" {
+            m.double_sided = true;
+        }
+    }
+    let ts = TraceScene::new(s);
+    let set = trace_light_paths(&ts, &LightTracerSettings::default(), PATHS, 5, 0);
+    let got = absorbed(&ts, &set);
+    assert!(
+        ((got - Rgb::splat(2.0 * one_side)) / one_side).abs().max_element() < 0.02,
+        "{got} vs {}",
+        2.0 * one_side
+    );
+}
