@@ -7,29 +7,6 @@ use common::*;
 use glam::{UVec3, Vec3};
 use std::f64::consts::PI;
 
-/// Closed box whose walls emit 1 and reflect with albedo 0.5, filled with a purely scattering
-/// medium: radiance is 2 everywhere, whatever σs and g are.
-fn furnace(sigma_s: Rgb, g: f32, grid: Option<DensityGrid>) -> beamlight_scene::Scene {
-    let mut s = empty_scene(Vec3::new(0.1, -0.2, 0.3), Vec3::new(0.5, 0.3, -1.0), 70.0, 12, 12);
-    let wall = add_material(
-        &mut s,
-        material(
-            "wall",
-            Some(beamlight_scene::bsdf::Bsdf::Lambert {
-                albedo: Rgb::splat(0.5),
-            }),
-            Rgb::ONE,
-            false,
-        ),
-    );
-    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
-    let mut m = homogeneous(sigma_s, Rgb::ZERO, g);
-    m.density = grid;
-    s.media.push(m);
-    s.global_medium = Some(0);
-    s
-}
-
 fn rmse_to(film: &beamlight_render::Film, v: f32) -> f64 {
     let img = film.image();
     let se: f64 = img
@@ -518,52 +495,6 @@ fn bounded_media_switch_at_invisible_boundaries() {
         }
         e
     });
-}
-
-/// The furnace with lossless specular objects: a glass sphere (ior 1.5) filled with a chromatic
-/// scattering medium and, optionally, a perfect mirror cube.
-fn glass_furnace(size: u32, sphere_segments: u32, mirror: bool) -> beamlight_scene::Scene {
-    use beamlight_scene::{bsdf::Bsdf, gltf_writer::shapes, scene::MediumInterface};
-    let mut s = furnace(Rgb::splat(0.4), 0.2, None);
-    s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, size, size).camera;
-    s.render.width = size;
-    s.render.height = size;
-    let glass = add_material(
-        &mut s,
-        material(
-            "glass",
-            Some(Bsdf::Glass {
-                ior: 1.5,
-                tint: Rgb::ONE,
-            }),
-            Rgb::ZERO,
-            false,
-        ),
-    );
-    s.media.push(homogeneous(Rgb::new(2.0, 1.0, 3.0), Rgb::ZERO, -0.3));
-    let sphere = shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, sphere_segments / 2, sphere_segments);
-    add_mesh(
-        &mut s,
-        sphere,
-        glass,
-        Some(MediumInterface {
-            inside: Some(1),
-            outside: Some(0),
-        }),
-    );
-    if mirror {
-        let m = add_material(
-            &mut s,
-            material("mirror", Some(Bsdf::Mirror { reflectance: Rgb::ONE }), Rgb::ZERO, false),
-        );
-        add_mesh(
-            &mut s,
-            shapes::cuboid(Vec3::new(0.2, -0.6, -0.8), Vec3::new(0.7, -0.1, -0.3), true),
-            m,
-            None,
-        );
-    }
-    s
 }
 
 /// Lossless specular objects keep the furnace at 2. Checks refraction, the 1/η² radiance

@@ -1,6 +1,7 @@
 //! beamlight-trace: the CPU side of rendering — BVH and ray queries, transmittance and
 //! distance sampling in media, light sampling, and the reference volumetric path tracer.
 pub mod bvh;
+pub mod camera_paths;
 pub mod context;
 pub mod geometry;
 pub mod light_paths;

@@ -1,0 +1,227 @@
+//! Camera-side gather data: one jittered camera ray per pixel per pass, followed through mirror
+//! and glass chains and invisible medium boundaries, recorded as the points and segments where
+//! the many-light estimators gather light.
+//!
+//! Throughput bookkeeping: a record's `throughput` is what radiance arriving there is multiplied
+//! by on its way to the pixel. For a media segment it is the throughput at the segment's start
+//! (its own transmittance is part of the estimate along it); for a shading point it includes the
+//! transmittance of every medium the ray crossed to reach it. Emission seen directly (also
+//! through specular chains) is added to `emitted`, per pixel.
+use crate::{TraceScene, context::MAX_CROSSINGS};
+use beamlight_scene::{Rgb, bsdf::Bsdf, frame::Frame, rng::Sampler, scene::MediumId};
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec2, Vec3};
+
+/// A diffuse or glossy surface point seen from the camera (possibly through specular bounces).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ShadingPoint {
+    pub pos: [f32; 3],
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Shading normal, on the side of `wo`.
+    pub normal: [f32; 3],
+    /// Index into `Scene::triangles`.
+    pub tri: u32,
+    /// Unit direction towards the camera (along the path).
+    pub wo: [f32; 3],
+    /// Pixel index (row-major, row 0 at the top).
+    pub pixel: u32,
+    pub throughput: [f32; 3],
+    pub _pad: u32,
+    /// Texture coordinates (zero when the material is untextured).
+    pub uv: [f32; 2],
+    pub _pad2: [u32; 2],
+}
+
+/// A stretch of a camera ray through one medium.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct MediaSegment {
+    pub origin: [f32; 3],
+    /// Length of the stretch (∞ never: unbounded stretches are cut where the medium ends or
+    /// where transmittance makes the rest negligible, see [`trace_camera_paths`]).
+    pub length: f32,
+    /// Unit direction of travel (away from the camera).
+    pub dir: [f32; 3],
+    /// Index into `Scene::media`.
+    pub medium: u32,
+    /// Throughput at `origin`.
+    pub throughput: [f32; 3],
+    pub pixel: u32,
+}
+
+/// One pass's camera gather data.
+#[derive(Clone, Debug, Default)]
+pub struct GatherSet {
+    pub width: u32,
+    pub height: u32,
+    pub shading_points: Vec<ShadingPoint>,
+    pub media_segments: Vec<MediaSegment>,
+    /// Emitted radiance seen directly, per pixel (one jittered sample).
+    pub emitted: Vec<Rgb>,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct CameraPathSettings {
+    /// Specular bounces after which Russian roulette starts.
+    pub rr_depth: u32,
+}
+
+impl Default for CameraPathSettings {
+    fn default() -> Self {
+        Self { rr_depth: 8 }
+    }
+}
+
+/// Traces one camera ray per pixel for pass `pass` with the random stream
+/// `(seed, pass, pixel)`. A ray that leaves the scene inside an unbounded medium would make an
+/// infinite segment; it is cut where the medium's transmittance falls below 10⁻⁶ (at most a
+/// 10⁻⁶ relative loss of what lies beyond, and nothing lies beyond).
+pub fn trace_camera_paths(
+    ts: &TraceScene,
+    settings: &CameraPathSettings,
+    width: u32,
+    height: u32,
+    seed: u32,
+    pass: u32,
+) -> GatherSet {
+    let mut set = GatherSet {
+        width,
+        height,
+        emitted: vec![Rgb::ZERO; (width * height) as usize],
+        ..Default::default()
+    };
+    let cam = &ts.scene.camera;
+    for pixel in 0..width * height {
+        let mut s = Sampler::new(seed, pass, pixel);
+        let (x, y) = (pixel % width, pixel / width);
+        let j = s.next_2d();
+        let film = Vec2::new((x as f32 + j.x) / width as f32, (y as f32 + j.y) / height as f32);
+        let d = cam.direction(film, width as f32 / height as f32);
+        trace_one(
+            ts,
+            settings,
+            pixel,
+            cam.position(),
+            d,
+            ts.camera_medium,
+            &mut s,
+            &mut set,
+        );
+    }
+    set
+}
+
+#[allow(clippy::too_many_arguments)]
+fn trace_one(
+    ts: &TraceScene,
+    settings: &CameraPathSettings,
+    pixel: u32,
+    mut o: Vec3,
+    mut d: Vec3,
+    mut medium: MediumId,
+    s: &mut Sampler,
+    set: &mut GatherSet,
+) {
+    let scene = &ts.scene;
+    let mut throughput = Rgb::ONE;
+    let mut bounces = 0u32;
+    let mut crossings = 0u32;
+    loop {
+        let hit = ts.intersect(o, d, f32::INFINITY);
+        if let Some(mi) = medium {
+            let m = &scene.media[mi as usize];
+            let mut length = hit.map_or(f32::INFINITY, |(h, _)| h.t);
+            if !length.is_finite() {
+                // Cut where even the thinnest channel has decayed to 10⁻⁶ (homogeneous media;
+                // a density grid ends at its box, beyond which nothing scatters).
+                length = match &m.density {
+                    None => {
+                        // The thinnest channel that scatters at all decides; channels with
+                        // σt = 0 cannot scatter either.
+                        let st = m.sigma_t();
+                        let thinnest = [st.x, st.y, st.z]
+                            .into_iter()
+                            .filter(|&v| v > 0.0)
+                            .fold(f32::INFINITY, f32::min);
+                        13.8 / thinnest
+                    }
+                    Some(g) => (g.hi - o).abs().max((g.lo - o).abs()).length(),
+                };
+            }
+            if length.is_finite() && length > 0.0 {
+                set.media_segments.push(MediaSegment {
+                    origin: o.into(),
+                    length,
+                    dir: d.into(),
+                    medium: mi,
+                    throughput: throughput.into(),
+                    pixel,
+                });
+            }
+            throughput *= ts.medium_transmittance(medium, o, d, length, s);
+            if throughput == Rgb::ZERO {
+                return;
+            }
+        }
+        let Some((_, sh)) = hit else { return };
+        let tri = &scene.triangles[sh.tri as usize];
+        let mat = ts.material(&sh);
+        if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) {
+            set.emitted[pixel as usize] += throughput * mat.emission;
+        }
+        let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
+            if let Some(iface) = tri.interface {
+                medium = iface.entered(sh.ng, d);
+            }
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                return;
+            }
+            o = sh.spawn(d);
+            continue;
+        };
+        let wo = -d;
+        if !bsdf.is_delta() {
+            let ns = if sh.ns.dot(wo) < 0.0 { -sh.ns } else { sh.ns };
+            let uv = sh.uv.unwrap_or_default();
+            set.shading_points.push(ShadingPoint {
+                pos: sh.p.into(),
+                material: sh.material,
+                normal: ns.into(),
+                tri: sh.tri,
+                wo: wo.into(),
+                pixel,
+                throughput: throughput.into(),
+                _pad: 0,
+                uv: uv.into(),
+                _pad2: [0; 2],
+            });
+            return;
+        }
+        // Mirror or glass: follow the specular chain.
+        let frame = Frame::from_normal(sh.ns);
+        let Some(bs) = bsdf.sample(frame.to_local(wo), s.next_2d(), s.next_1d()) else {
+            return;
+        };
+        let wi = frame.to_world(bs.wi);
+        if !matches!(bsdf, Bsdf::Glass { .. }) && sh.ng.dot(wi) * sh.ng.dot(wo) <= 0.0 {
+            return;
+        }
+        throughput *= bs.weight;
+        bounces += 1;
+        if bounces >= settings.rr_depth {
+            let q = throughput.max_element().min(0.95);
+            if s.next_1d() >= q {
+                return;
+            }
+            throughput /= q;
+        }
+        if let Some(iface) = tri.interface {
+            medium = iface.entered(sh.ng, wi);
+        }
+        o = sh.spawn(wi);
+        d = wi;
+    }
+}
