@@ -28,10 +28,20 @@ pub struct ShadingPoint {
     /// Pixel index (row-major, row 0 at the top).
     pub pixel: u32,
     pub throughput: [f32; 3],
-    pub _pad: u32,
+    /// The medium around the point (on the side of `wo`), [`NO_MEDIUM`] for vacuum.
+    pub medium: u32,
     /// Texture coordinates (zero when the material is untextured).
     pub uv: [f32; 2],
     pub _pad2: [u32; 2],
+}
+
+/// `ShadingPoint::medium` of a point in vacuum.
+pub const NO_MEDIUM: u32 = u32::MAX;
+
+impl ShadingPoint {
+    pub fn medium(&self) -> MediumId {
+        (self.medium != NO_MEDIUM).then_some(self.medium)
+    }
 }
 
 /// A stretch of a camera ray through one medium.
@@ -194,7 +204,7 @@ fn trace_one(
                 wo: wo.into(),
                 pixel,
                 throughput: throughput.into(),
-                _pad: 0,
+                medium: medium.unwrap_or(NO_MEDIUM),
                 uv: uv.into(),
                 _pad2: [0; 2],
             });

@@ -123,6 +123,11 @@ pub fn interpolation_error(tri: &[Vec3; 3], b1: f32, b2: f32) -> Vec3 {
     ((tri[0] * (1.0 - b1 - b2)).abs() + (tri[1] * b1).abs() + (tri[2] * b2).abs()) * INTERPOLATION_ERROR
 }
 
+/// An error bound valid for any point of the triangle: Σ|bᵢ pᵢ| ≤ maxᵢ |pᵢ| per axis.
+pub fn triangle_error_bound(tri: &[Vec3; 3]) -> Vec3 {
+    (tri[0].abs().max(tri[1].abs()).max(tri[2].abs())) * INTERPOLATION_ERROR
+}
+
 /// Moves the surface point `p` (with per-axis error bound `p_error`) along `n` — the geometric
 /// normal already flipped to the side the new ray leaves from — just far enough that the
 /// rounding error cannot put it back on the other side, then one ulp further per axis.

@@ -8,5 +8,6 @@ pub mod light_paths;
 pub mod lights;
 pub mod media;
 pub mod pt;
+pub mod vpl;
 
 pub use context::TraceScene;

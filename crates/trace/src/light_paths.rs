@@ -12,7 +12,7 @@
 use crate::{
     TraceScene,
     context::MAX_CROSSINGS,
-    geometry::{interpolation_error, offset_ray_origin},
+    geometry::{offset_ray_origin, triangle_error_bound},
     lights::EmissionSample,
     media::{self, MediumEvent},
 };
@@ -127,10 +127,7 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
     let (mut o, mut medium): (Vec3, MediumId) = match e.surface {
         Some((tri, n)) => {
             let t = &scene.triangles[tri as usize];
-            // Bound for any point of the triangle: Σ|bᵢ pᵢ| ≤ maxᵢ |pᵢ| per axis.
-            let err = (0..3)
-                .map(|i| interpolation_error(&t.p, (i == 1) as u8 as f32, (i == 2) as u8 as f32))
-                .fold(Vec3::ZERO, Vec3::max);
+            let err = triangle_error_bound(&t.p);
             let o = offset_ray_origin(e.p, err, n);
             (o, ts.medium_at(o))
         }

@@ -1,0 +1,67 @@
+//! Virtual point lights: the light a recorded light-path vertex sends to a camera shading
+//! point (the `Lss` component, surface → surface), unclamped. Later estimators (clamped VPLs,
+//! virtual spherical lights) build on the same geometry.
+use crate::{
+    TraceScene,
+    camera_paths::ShadingPoint,
+    geometry::{face_towards, offset_ray_origin, triangle_error_bound},
+    light_paths::SurfaceVertex,
+    lights::LightSample,
+};
+use beamlight_scene::{Rgb, frame::Frame, rng::Sampler};
+use glam::{Vec2, Vec3};
+
+/// Radiance a VPL sends to the pixel of `sp`, per light path traced (divide the sum over a
+/// light set by its path count): Φ · f_vpl(wi → ω) |cos| · f_sp(ω → wo) |cos| / d² · T · V.
+/// The shadow ray starts in the shading point's medium.
+pub fn vpl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vpl: &SurfaceVertex, s: &mut Sampler) -> Rgb {
+    let scene = &ts.scene;
+    let (p, q) = (Vec3::from(sp.pos), Vec3::from(vpl.pos));
+    let to = q - p;
+    let d2 = to.length_squared();
+    if !(d2 > 0.0) {
+        return Rgb::ZERO;
+    }
+    let dist = d2.sqrt();
+    let w = to / dist; // from the shading point towards the VPL
+    let (Some(f_sp), Some(f_vpl)) = (
+        scene.bsdf_at(sp.material, Some(Vec2::from(sp.uv))),
+        scene.bsdf_at(vpl.material, Some(Vec2::new(vpl.u, vpl.v))),
+    ) else {
+        return Rgb::ZERO;
+    };
+    let sp_frame = Frame::from_normal(Vec3::from(sp.normal));
+    let vpl_frame = Frame::from_normal(Vec3::from(vpl.normal));
+    let (wo_sp, wi_sp) = (sp_frame.to_local(Vec3::from(sp.wo)), sp_frame.to_local(w));
+    let (wi_vpl, wo_vpl) = (vpl_frame.to_local(Vec3::from(vpl.wi)), vpl_frame.to_local(-w));
+    let f = f_sp.eval(wo_sp, wi_sp) * wi_sp.z.abs() * f_vpl.eval(wo_vpl, wi_vpl) * wo_vpl.z.abs();
+    if f == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let (ng_sp, ng_vpl) = (tri_normal(ts, sp.tri), tri_normal(ts, vpl.tri));
+    let origin = offset_ray_origin(
+        p,
+        triangle_error_bound(&scene.triangles[sp.tri as usize].p),
+        face_towards(ng_sp, w),
+    );
+    let target = offset_ray_origin(
+        q,
+        triangle_error_bound(&scene.triangles[vpl.tri as usize].p),
+        face_towards(ng_vpl, -w),
+    );
+    let shadow = LightSample {
+        p: q,
+        n: Some(ng_vpl),
+        wi: w,
+        dist,
+        target,
+        contribution: Rgb::ONE,
+        pdf: 0.0,
+    };
+    let tr = ts.shadow_transmittance(origin, &shadow, sp.medium(), s);
+    Rgb::from(sp.throughput) * Rgb::from(vpl.power) * f * tr / d2
+}
+
+fn tri_normal(ts: &TraceScene, tri: u32) -> Vec3 {
+    ts.scene.triangles[tri as usize].cross().normalize()
+}
