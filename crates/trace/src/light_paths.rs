@@ -31,8 +31,14 @@ pub struct LightSegment {
     pub medium: u32,
     /// Flux entering the segment (before transmittance along it).
     pub power: [f32; 3],
-    pub _pad: u32,
+    /// How the path reached the segment: [`FROM_LIGHT`] or [`AFTER_SPECULAR`] (or neither).
+    pub flags: u32,
 }
+
+/// `LightSegment::flags`: the segment starts at the light (no scattering before it).
+pub const FROM_LIGHT: u32 = 1;
+/// `LightSegment::flags`: the last scattering before the segment was a specular bounce.
+pub const AFTER_SPECULAR: u32 = 2;
 
 /// A light-path vertex on a diffuse or glossy surface (a VPL; the centre of a VSL), or a
 /// caustic photon.
@@ -63,9 +69,12 @@ pub struct LightSet {
     pub vrls: Vec<LightSegment>,
     /// Every diffuse or glossy surface vertex (virtual point lights / VSL centres).
     pub vpls: Vec<SurfaceVertex>,
-    /// Diffuse/glossy vertices reached from a light through ≥ 1 specular bounce and nothing else.
+    /// Diffuse/glossy vertices whose light arrived through a specular bounce (L … S+ D, any
+    /// prefix): the light a camera shading point cannot gather from a VPL, since no straight
+    /// connection passes through the specular chain in between.
     pub caustic_photons: Vec<SurfaceVertex>,
-    /// Medium segments reached from a light directly or through specular bounces only.
+    /// Medium segments that start at the light or right after a specular bounce (flags say
+    /// which): single scattering and volume caustics.
     pub photon_beams: Vec<LightSegment>,
 }
 
@@ -108,14 +117,14 @@ pub fn trace_light_paths(
     set
 }
 
-fn segment(origin: Vec3, dir: Vec3, length: f32, medium: u32, power: Rgb) -> LightSegment {
+fn segment(origin: Vec3, dir: Vec3, length: f32, medium: u32, power: Rgb, flags: u32) -> LightSegment {
     LightSegment {
         origin: origin.into(),
         length,
         dir: dir.into(),
         medium,
         power: power.into(),
-        _pad: 0,
+        flags,
     }
 }
 
@@ -133,9 +142,9 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
         }
         None => (e.p, ts.medium_at(e.p)),
     };
-    // Still on a light → (specular)* prefix: beams and caustic photons come from such paths.
-    let mut specular_chain = true;
-    let mut had_specular = false;
+    // What the path did last: nothing yet (still leaving the light), a specular bounce, or a
+    // diffuse/glossy/medium scattering. Beams and caustic photons are defined by it.
+    let mut flags = FROM_LIGHT;
     let mut depth = 0u32;
     let mut crossings = 0u32;
     loop {
@@ -149,9 +158,9 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
                 MediumEvent::Pass { .. } => tmax,
             };
             if length.is_finite() && length > 0.0 {
-                let seg = segment(o, d, length, mi, power);
+                let seg = segment(o, d, length, mi, power, flags);
                 set.vrls.push(seg);
-                if specular_chain {
+                if flags != 0 {
                     set.photon_beams.push(seg);
                 }
             }
@@ -167,7 +176,7 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
                     // towards where the light came from.
                     let ps = HenyeyGreenstein { g: m.g }.sample(-d, s.next_2d());
                     power *= ps.weight;
-                    specular_chain = false;
+                    flags = 0;
                     o = p;
                     d = ps.wi;
                     if !roulette(&mut power, e.power, depth, settings.rr_depth, s) {
@@ -212,7 +221,7 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
                 v: uv.y,
             };
             set.vpls.push(vertex);
-            if specular_chain && had_specular {
+            if flags & AFTER_SPECULAR != 0 {
                 set.caustic_photons.push(vertex);
             }
         }
@@ -235,11 +244,7 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
             return;
         }
         power *= bs.weight * correction;
-        if bs.is_delta {
-            had_specular = true;
-        } else {
-            specular_chain = false;
-        }
+        flags = if bs.is_delta { AFTER_SPECULAR } else { 0 };
         if let Some(iface) = tri.interface {
             medium = iface.entered(sh.ng, wi);
         }
