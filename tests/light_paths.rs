@@ -6,6 +6,7 @@ use beamlight_scene::{Rgb, bsdf::Bsdf, light::PunctualLight};
 use beamlight_trace::{
     TraceScene,
     light_paths::{LightSegment, LightSet, LightTracerSettings, SurfaceVertex, trace_light_paths},
+    media::homogeneous_transmittance,
 };
 use common::*;
 use glam::{DVec3, Vec3};
@@ -19,8 +20,9 @@ fn albedo_of(ts: &TraceScene, v: &SurfaceVertex) -> Rgb {
     }
 }
 
-/// Absorbed flux per path: (1 − ρ) of every VPL's incident flux plus σa · length of every VRL's
-/// entering flux (track length; valid for grey media, where distances are sampled analogously).
+/// Absorbed flux per path: (1 − ρ) of every VPL's incident flux plus, for every VRL (which
+/// runs to the next surface), the share σa/σt (1 − e^(−σt L)) of its entering flux that the
+/// medium absorbs along it.
 /// (Summed in f64: millions of f32 additions would drift by a percent.)
 fn absorbed(ts: &TraceScene, set: &LightSet) -> Rgb {
     let mut total = DVec3::ZERO;
@@ -28,7 +30,9 @@ fn absorbed(ts: &TraceScene, set: &LightSet) -> Rgb {
         total += (Rgb::from(v.power) * (Rgb::ONE - albedo_of(ts, v))).as_dvec3();
     }
     for seg in &set.vrls {
-        total += (Rgb::from(seg.power) * ts.scene.media[seg.medium as usize].sigma_a * seg.length).as_dvec3();
+        let m = &ts.scene.media[seg.medium as usize];
+        let absorbed_share = m.sigma_a / m.sigma_t() * (Rgb::ONE - homogeneous_transmittance(m.sigma_t(), seg.length));
+        total += (Rgb::from(seg.power) * absorbed_share).as_dvec3();
     }
     (total / set.paths as f64).as_vec3()
 }

@@ -3,50 +3,7 @@
 //! The many-light methods render the image as a sum of separately accumulated components; a
 //! component a scene cannot produce is skipped entirely (no light tracing, no gather).
 use beamlight_scene::{Scene, bsdf::Bsdf};
-
-/// One of the separately accumulated parts of the image (also the EXR layer names).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Component {
-    /// Light arriving straight from emitters, at surfaces and along camera rays in media.
-    Direct,
-    /// Media → surface (`L_s^m`), from virtual ray/beam lights.
-    Lsm,
-    /// Media → media (`L_m^m`).
-    Lmm,
-    /// Surface → media (`L_m^s`), from virtual point/spherical lights.
-    Lms,
-    /// Surface → surface (`L_s^s`).
-    Lss,
-    /// Caustics on surfaces (light → specular chain → diffuse/glossy surface).
-    CausticSurface,
-    /// Volume caustics (light → specular chain → medium). Single scattering straight from the
-    /// lights is part of `Direct`.
-    CausticVolume,
-}
-
-impl Component {
-    pub const ALL: [Component; 7] = [
-        Component::Direct,
-        Component::Lsm,
-        Component::Lmm,
-        Component::Lms,
-        Component::Lss,
-        Component::CausticSurface,
-        Component::CausticVolume,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Component::Direct => "direct",
-            Component::Lsm => "Lsm",
-            Component::Lmm => "Lmm",
-            Component::Lms => "Lms",
-            Component::Lss => "Lss",
-            Component::CausticSurface => "caustic_surface",
-            Component::CausticVolume => "caustic_volume",
-        }
-    }
-}
+pub use beamlight_trace::components::Component;
 
 /// What the scene contains that decides which components can be non-zero.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,7 +7,7 @@
 //! (its own transmittance is part of the estimate along it); for a shading point it includes the
 //! transmittance of every medium the ray crossed to reach it. Emission seen directly (also
 //! through specular chains) is added to `emitted`, per pixel.
-use crate::{TraceScene, context::MAX_CROSSINGS};
+use crate::{TraceScene, context::MAX_CROSSINGS, media};
 use beamlight_scene::{Rgb, bsdf::Bsdf, frame::Frame, rng::Sampler, scene::MediumId};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
@@ -85,9 +85,8 @@ impl Default for CameraPathSettings {
 }
 
 /// Traces one camera ray per pixel for pass `pass` with the random stream
-/// `(seed, pass, pixel)`. A ray that leaves the scene inside an unbounded medium would make an
-/// infinite segment; it is cut where the medium's transmittance falls below 10⁻⁶ (at most a
-/// 10⁻⁶ relative loss of what lies beyond, and nothing lies beyond).
+/// `(seed, pass, pixel)`. A ray that leaves the scene inside an unbounded medium is cut as
+/// [`media::extent`] says.
 pub fn trace_camera_paths(
     ts: &TraceScene,
     settings: &CameraPathSettings,
@@ -142,24 +141,7 @@ fn trace_one(
         let hit = ts.intersect(o, d, f32::INFINITY);
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
-            let mut length = hit.map_or(f32::INFINITY, |(h, _)| h.t);
-            if !length.is_finite() {
-                // Cut where even the thinnest channel has decayed to 10⁻⁶ (homogeneous media;
-                // a density grid ends at its box, beyond which nothing scatters).
-                length = match &m.density {
-                    None => {
-                        // The thinnest channel that scatters at all decides; channels with
-                        // σt = 0 cannot scatter either.
-                        let st = m.sigma_t();
-                        let thinnest = [st.x, st.y, st.z]
-                            .into_iter()
-                            .filter(|&v| v > 0.0)
-                            .fold(f32::INFINITY, f32::min);
-                        13.8 / thinnest
-                    }
-                    Some(g) => (g.hi - o).abs().max((g.lo - o).abs()).length(),
-                };
-            }
+            let length = media::extent(m, o, hit.map_or(f32::INFINITY, |(h, _)| h.t));
             if length.is_finite() && length > 0.0 {
                 set.media_segments.push(MediaSegment {
                     origin: o.into(),

@@ -2,6 +2,7 @@
 //! distance sampling in media, light sampling, and the reference volumetric path tracer.
 pub mod bvh;
 pub mod camera_paths;
+pub mod components;
 pub mod context;
 pub mod geometry;
 pub mod light_paths;
@@ -9,5 +10,6 @@ pub mod lights;
 pub mod media;
 pub mod pt;
 pub mod vpl;
+pub mod vrl;
 
 pub use context::TraceScene;

@@ -4,7 +4,9 @@
 //! Flux bookkeeping: a path starts with the flux of its [`EmissionSample`] (so the mean over
 //! paths is the scene's emitted power) and is multiplied by each interaction's weight. Every
 //! record stores the flux *arriving* at it: a segment's flux is the flux entering it (before
-//! any attenuation along it), a vertex's the flux incident on it. Averaging a set's records
+//! any attenuation along it), a vertex's the flux incident on it. Segments run from where the
+//! path entered the medium to the next surface, whether or not the walk scattered on the way:
+//! the flux scattered out of a segment at distance u is Φ σs(u) T(u). Averaging a set's records
 //! over the number of paths traced (`LightSet::paths`) gives unbiased flux estimates.
 //!
 //! The records are plain `#[repr(C)]` data in flat arrays, laid out for the GPU (each 3-vector
@@ -153,10 +155,11 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
             let event = media::sample_distance(m, o, d, tmax, power, s);
-            let length = match event {
-                MediumEvent::Scatter { t, .. } => t,
-                MediumEvent::Pass { .. } => tmax,
-            };
+            // The whole stretch to the next surface ("long" VRLs and beams, Jarosz et al. 2011):
+            // gathers weight it by transmittance, independently of where this path scatters.
+            // (A segment cut at the sampled collision would need the collision's survival
+            // probability instead, which spectral tracking does not have in closed form.)
+            let length = media::extent(m, o, tmax);
             if length.is_finite() && length > 0.0 {
                 let seg = segment(o, d, length, mi, power, flags);
                 set.vrls.push(seg);

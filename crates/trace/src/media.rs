@@ -51,6 +51,29 @@ pub fn homogeneous_transmittance(sigma_t: Rgb, t: f32) -> Rgb {
     Rgb::new(f(sigma_t.x), f(sigma_t.y), f(sigma_t.z))
 }
 
+/// How far along a ray a medium can matter: `tmax` (the next surface) when finite; otherwise,
+/// for a ray leaving the scene in an unbounded medium, where even the thinnest scattering
+/// channel's transmittance has fallen to 10⁻⁶ (homogeneous), or the far side of the density
+/// grid's box (heterogeneous; nothing scatters beyond it). Beyond that length the medium adds
+/// at most a 10⁻⁶ relative share, and there is nothing else out there.
+pub fn extent(m: &Medium, o: Vec3, tmax: f32) -> f32 {
+    if tmax.is_finite() {
+        return tmax;
+    }
+    match &m.density {
+        None => {
+            // Channels with σt = 0 cannot scatter either.
+            let st = m.sigma_t();
+            let thinnest = [st.x, st.y, st.z]
+                .into_iter()
+                .filter(|&v| v > 0.0)
+                .fold(f32::INFINITY, f32::min);
+            13.8 / thinnest
+        }
+        Some(g) => (g.hi - o).abs().max((g.lo - o).abs()).length(),
+    }
+}
+
 /// Samples the next real collision along `o + t·d`, `t ∈ (0, tmax)` (`tmax` may be ∞).
 pub fn sample_distance(m: &Medium, o: Vec3, d: Vec3, tmax: f32, throughput: Rgb, s: &mut Sampler) -> MediumEvent {
     match &m.density {

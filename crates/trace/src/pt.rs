@@ -1,6 +1,7 @@
 //! The reference volumetric path tracer: unbiased, next-event estimation through media with
 //! MIS (power heuristic) between light sampling and BSDF/phase sampling, Russian roulette.
 //! It is the ground truth every other estimator is measured against.
+use crate::components::Component;
 use crate::{
     context::{MAX_CROSSINGS, TraceScene},
     media::{self, MediumEvent},
@@ -53,14 +54,79 @@ pub fn sample_pixel(
 pub fn radiance(
     ts: &TraceScene,
     settings: &PathTracerSettings,
+    o: Vec3,
+    d: Vec3,
+    medium: MediumId,
+    s: &mut Sampler,
+) -> Rgb {
+    let mut l = Rgb::ZERO;
+    radiance_split(ts, settings, o, d, medium, s, &mut |_, c| l += c);
+    l
+}
+
+/// Whether a scattering vertex is on a surface or in a medium.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Vertex {
+    Surface,
+    Medium,
+}
+
+/// Which component a contribution belongs to, from the camera path's first two non-specular
+/// vertices v1, v2 (see [`Component`] for the decomposition).
+#[derive(Clone, Copy, Debug, Default)]
+struct PathClass {
+    v1: Option<Vertex>,
+    v2: Option<Vertex>,
+    /// A specular bounce happened after v1 (and before v2 or the light).
+    specular_after_v1: bool,
+}
+
+impl PathClass {
+    fn scatter(&mut self, v: Vertex) {
+        if self.v1.is_none() {
+            self.v1 = Some(v);
+        } else if self.v2.is_none() {
+            self.v2 = Some(v);
+        }
+    }
+
+    fn specular_bounce(&mut self) {
+        if self.v1.is_some() && self.v2.is_none() {
+            self.specular_after_v1 = true;
+        }
+    }
+
+    /// The component that light found now (by next-event estimation at the current vertex or
+    /// by hitting an emitter) belongs to.
+    fn component(&self) -> Component {
+        match (self.v1, self.v2, self.specular_after_v1) {
+            (None, _, _) => Component::Direct,
+            (Some(Vertex::Surface), _, true) => Component::CausticSurface,
+            (Some(Vertex::Medium), _, true) => Component::CausticVolume,
+            (Some(_), None, false) => Component::Direct,
+            (Some(Vertex::Surface), Some(Vertex::Surface), false) => Component::Lss,
+            (Some(Vertex::Surface), Some(Vertex::Medium), false) => Component::Lsm,
+            (Some(Vertex::Medium), Some(Vertex::Surface), false) => Component::Lms,
+            (Some(Vertex::Medium), Some(Vertex::Medium), false) => Component::Lmm,
+        }
+    }
+}
+
+/// [`radiance`], with every contribution handed to `sink` together with the transport
+/// component it belongs to, so the path tracer can serve as the reference for each component
+/// of the many-light methods.
+pub fn radiance_split(
+    ts: &TraceScene,
+    settings: &PathTracerSettings,
     mut o: Vec3,
     mut d: Vec3,
     mut medium: MediumId,
     s: &mut Sampler,
-) -> Rgb {
+    sink: &mut impl FnMut(Component, Rgb),
+) {
     let scene = &ts.scene;
     let max_depth = settings.max_depth.unwrap_or(u32::MAX);
-    let mut l = Rgb::ZERO;
+    let mut class = PathClass::default();
     let mut beta = Rgb::ONE;
     let mut depth = 0u32;
     // The last scattering vertex and the solid-angle pdf of the direction sampled there, for
@@ -83,6 +149,7 @@ pub fn radiance(
                     if depth > max_depth || beta == Rgb::ZERO {
                         break;
                     }
+                    class.scatter(Vertex::Medium);
                     let p = o + d * t;
                     let wo = -d;
                     let phase = HenyeyGreenstein { g: m.g };
@@ -95,7 +162,7 @@ pub fn radiance(
                             } else {
                                 1.0
                             };
-                            l += beta * tr * ls.contribution * (f * w);
+                            sink(class.component(), beta * tr * ls.contribution * (f * w));
                         }
                     }
                     let ps = phase.sample(wo, s.next_2d());
@@ -129,7 +196,7 @@ pub fn radiance(
             } else {
                 power_heuristic(prev_pdf, ts.lights.pdf_hit(scene, prev_p, sh.tri, sh.p))
             };
-            l += beta * mat.emission * w;
+            sink(class.component(), beta * mat.emission * w);
         }
 
         let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
@@ -148,6 +215,9 @@ pub fn radiance(
         depth += 1;
         if depth > max_depth {
             break;
+        }
+        if !bsdf.is_delta() {
+            class.scatter(Vertex::Surface);
         }
         let frame = Frame::from_normal(sh.ns);
         let wo = -d;
@@ -169,7 +239,7 @@ pub fn radiance(
                 } else {
                     1.0
                 };
-                l += beta * f * tr * ls.contribution * w;
+                sink(class.component(), beta * f * tr * ls.contribution * w);
             }
         }
 
@@ -186,6 +256,9 @@ pub fn radiance(
         prev_p = sh.p;
         prev_pdf = bs.pdf;
         specular = bs.is_delta;
+        if bs.is_delta {
+            class.specular_bounce();
+        }
         if let Some(iface) = tri.interface {
             medium = iface.entered(sh.ng, wi);
         }
@@ -195,7 +268,6 @@ pub fn radiance(
             break;
         }
     }
-    l
 }
 
 /// Highest survival probability Russian roulette grants once it has started. Capping it below 1

@@ -1,14 +1,16 @@
-//! Virtual point lights: the light a recorded light-path vertex sends to a camera shading
-//! point (the `Lss` component, surface → surface), unclamped. Later estimators (clamped VPLs,
-//! virtual spherical lights) build on the same geometry.
+//! Virtual point lights: the light a recorded light-path vertex sends to a camera shading point
+//! (`Lss`, surface → surface) or scatters into a camera media segment (`Lms`, surface → media),
+//! unclamped. Later estimators (clamped VPLs, virtual spherical lights) build on the same
+//! geometry.
 use crate::{
     TraceScene,
-    camera_paths::ShadingPoint,
+    camera_paths::{MediaSegment, ShadingPoint},
     geometry::{face_towards, offset_ray_origin, triangle_error_bound},
     light_paths::SurfaceVertex,
     lights::LightSample,
+    media,
 };
-use beamlight_scene::{Rgb, frame::Frame, rng::Sampler};
+use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling};
 use glam::{Vec2, Vec3};
 
 /// Radiance a VPL sends to the pixel of `sp`, per light path traced (divide the sum over a
@@ -64,4 +66,55 @@ pub fn vpl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vpl: &SurfaceVertex, s
 
 fn tri_normal(ts: &TraceScene, tri: u32) -> Vec3 {
     ts.scene.triangles[tri as usize].cross().normalize()
+}
+
+/// Radiance a VPL scatters into the pixel of a camera media segment (`Lms`, surface → media),
+/// per light path traced. The point on the segment is sampled equiangularly towards the VPL
+/// (density ∝ 1/distance², which cancels the VPL's own falloff).
+pub fn vpl_to_media(ts: &TraceScene, seg: &MediaSegment, vpl: &SurfaceVertex, s: &mut Sampler) -> Rgb {
+    let scene = &ts.scene;
+    let m = &scene.media[seg.medium as usize];
+    let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+    let q = Vec3::from(vpl.pos);
+    let (t, pdf) = sampling::equiangular(o, d, 0.0, seg.length, q, s.next_1d());
+    if !(pdf > 0.0) {
+        return Rgb::ZERO;
+    }
+    let x = o + d * t;
+    let to = q - x;
+    let d2 = to.length_squared();
+    if !(d2 > 0.0) {
+        return Rgb::ZERO;
+    }
+    let dist = d2.sqrt();
+    let w = to / dist;
+    let Some(f_vpl) = scene.bsdf_at(vpl.material, Some(Vec2::new(vpl.u, vpl.v))) else {
+        return Rgb::ZERO;
+    };
+    let vpl_frame = Frame::from_normal(Vec3::from(vpl.normal));
+    let (wi_vpl, wo_vpl) = (vpl_frame.to_local(Vec3::from(vpl.wi)), vpl_frame.to_local(-w));
+    let phase = HenyeyGreenstein { g: m.g }.eval(-d, w);
+    let f = f_vpl.eval(wo_vpl, wi_vpl) * wo_vpl.z.abs() * phase;
+    if f == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let sigma_s = m.sigma_s * m.density_at(x);
+    let t_cam = media::transmittance(m, o, d, t, s);
+    let ng_vpl = ts.scene.triangles[vpl.tri as usize].cross().normalize();
+    let target = offset_ray_origin(
+        q,
+        triangle_error_bound(&scene.triangles[vpl.tri as usize].p),
+        face_towards(ng_vpl, -w),
+    );
+    let shadow = LightSample {
+        p: q,
+        n: Some(ng_vpl),
+        wi: w,
+        dist,
+        target,
+        contribution: Rgb::ONE,
+        pdf: 0.0,
+    };
+    let tr = ts.shadow_transmittance(x, &shadow, Some(seg.medium), s);
+    Rgb::from(seg.throughput) * sigma_s * t_cam * Rgb::from(vpl.power) * f * tr / (d2 * pdf)
 }
