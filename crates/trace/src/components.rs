@@ -9,6 +9,7 @@
 //!   is on a surface, `CausticVolume` when in a medium;
 //! * otherwise light arriving from v2 by a straight connection: `Lss`, `Lsm`, `Lms`, `Lmm`
 //!   by the kinds (surface/medium) of v1 and v2, whatever the light path before v2.
+//!
 //! Every path falls in exactly one class. The many-light gathers match it: VPLs and VRLs
 //! (every light-path vertex and segment) connect straight to v1; caustic photons and photon
 //! beams after a specular bounce supply the caustics; direct light is next-event estimation.
