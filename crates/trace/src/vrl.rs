@@ -4,6 +4,7 @@
 //! * `Lsm`: the point on the VRL equiangularly (∝ 1/distance²) as seen from the shading point;
 //! * `Lmm`: two stages — the point on the VRL ∝ 1/(distance to the infinite camera line)², then
 //!   the point on the camera segment equiangularly towards it.
+//!
 //! Each function returns the radiance per light path traced (divide a set's sum by its paths).
 use crate::{
     TraceScene,
