@@ -1,6 +1,6 @@
 //! The many-light gathers against the path tracer, component by component: in a fog-filled box
-//! of Lambert walls, unclamped VPLs and VRLs gathered from camera shading points and media
-//! segments must converge to the path tracer's Lss, Lms, Lsm and Lmm (its contributions
+//! of Lambert walls, direct light and unclamped VPLs and VRLs gathered from camera shading
+//! points and media segments must converge to the path tracer's Direct, Lss, Lms, Lsm and Lmm (its contributions
 //! classified by the same path decomposition, see `beamlight_trace::components`).
 mod common;
 use beamlight_scene::{Rgb, Scene, rng::Sampler};
@@ -8,6 +8,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     components::Component,
+    direct,
     light_paths::{LightTracerSettings, trace_light_paths},
     pt::{self, PathTracerSettings},
     vpl, vrl,
@@ -72,7 +73,11 @@ fn unclamped_vpls_and_vrls_match_the_path_tracer_per_component() {
         let lights = trace_light_paths(&ts, &LightTracerSettings::default(), paths, 13, pass);
         let m = lights.paths as f32;
         let mut s = Sampler::new(14, pass, 0);
+        for e in &gather.emitted {
+            sum[Component::Direct as usize] += e.as_dvec3();
+        }
         for sp in &gather.shading_points {
+            sum[Component::Direct as usize] += direct::direct_at_surface(&ts, sp, &mut s).as_dvec3();
             for v in &lights.vpls {
                 sum[Component::Lss as usize] += (vpl::vpl_to_surface(&ts, sp, v, &mut s) / m).as_dvec3();
             }
@@ -81,6 +86,7 @@ fn unclamped_vpls_and_vrls_match_the_path_tracer_per_component() {
             }
         }
         for seg in &gather.media_segments {
+            sum[Component::Direct as usize] += direct::direct_in_medium(&ts, seg, &mut s).as_dvec3();
             for v in &lights.vpls {
                 sum[Component::Lms as usize] += (vpl::vpl_to_media(&ts, seg, v, &mut s) / m).as_dvec3();
             }
@@ -90,7 +96,13 @@ fn unclamped_vpls_and_vrls_match_the_path_tracer_per_component() {
         }
     }
     let ours = sum.map(|v| v / (passes as f64 * (w * h) as f64));
-    for c in [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm] {
+    for c in [
+        Component::Direct,
+        Component::Lss,
+        Component::Lsm,
+        Component::Lms,
+        Component::Lmm,
+    ] {
         let (a, b) = (ours[c as usize], reference[c as usize]);
         let rel = ((a - b) / b).abs().max_element();
         eprintln!(

@@ -4,6 +4,7 @@ pub mod bvh;
 pub mod camera_paths;
 pub mod components;
 pub mod context;
+pub mod direct;
 pub mod geometry;
 pub mod light_paths;
 pub mod lights;

@@ -31,6 +31,19 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// A point chosen on a light, independent of any viewer.
+#[derive(Clone, Copy, Debug)]
+pub struct LightPoint {
+    /// The point (a punctual light's position; unused for directional lights).
+    pub p: Vec3,
+    /// Bound on the rounding error of `p`.
+    pub p_error: Vec3,
+    light: LightRef,
+    /// Probability density of the choice: selection pmf / area for emissive triangles, the
+    /// selection pmf for punctual lights.
+    pub pdf: f32,
+}
+
 /// A sampled start of a light path: a point, a direction and the flux the path carries.
 #[derive(Clone, Copy, Debug)]
 pub struct EmissionSample {
@@ -100,19 +113,48 @@ impl LightSampler {
 
     /// Samples a light as seen from `p`; `None` when nothing can arrive (back face, no lights).
     pub fn sample(&self, scene: &Scene, p: Vec3, s: &mut Sampler) -> Option<LightSample> {
+        let lp = self.sample_point(scene, s)?;
+        self.connect(scene, &lp, p)
+    }
+
+    /// Chooses a light (in proportion to power) and a point on it (uniform by area), without
+    /// regard to where it will be seen from; [`LightSampler::connect`] then turns it into a
+    /// sample as seen from any point. Consumes three random numbers.
+    pub fn sample_point(&self, scene: &Scene, s: &mut Sampler) -> Option<LightPoint> {
         let u_select = s.next_1d();
         let u = s.next_2d();
         if self.is_empty() {
             return None;
         }
         let (k, pmf) = self.select.sample(u_select);
-        match self.lights[k] {
+        Some(match self.lights[k] {
+            LightRef::Triangle(ti) => {
+                let t = &scene.triangles[ti as usize];
+                let b = sampling::uniform_triangle(u);
+                LightPoint {
+                    p: t.p[0] * (1.0 - b.x - b.y) + t.p[1] * b.x + t.p[2] * b.y,
+                    p_error: interpolation_error(&t.p, b.x, b.y),
+                    light: LightRef::Triangle(ti),
+                    pdf: pmf / t.area(),
+                }
+            }
+            LightRef::Punctual(li) => LightPoint {
+                p: scene.lights[li as usize].position().unwrap_or(Vec3::ZERO),
+                p_error: Vec3::ZERO,
+                light: LightRef::Punctual(li),
+                pdf: pmf,
+            },
+        })
+    }
+
+    /// The light point `lp` as seen from `p`: direction, distance, shadow-ray target and the
+    /// arriving radiance over the solid-angle pdf. `None` when nothing arrives (back face).
+    pub fn connect(&self, scene: &Scene, lp: &LightPoint, p: Vec3) -> Option<LightSample> {
+        match lp.light {
             LightRef::Triangle(ti) => {
                 let t = &scene.triangles[ti as usize];
                 let m = &scene.materials[t.material as usize];
-                let b = sampling::uniform_triangle(u);
-                let q = t.p[0] * (1.0 - b.x - b.y) + t.p[1] * b.x + t.p[2] * b.y;
-                let n = t.cross().normalize();
+                let (q, n) = (lp.p, t.cross().normalize());
                 let to = q - p;
                 let dist2 = to.length_squared();
                 let dist = dist2.sqrt();
@@ -124,11 +166,11 @@ impl LightSampler {
                 if cos_l <= 0.0 && !m.double_sided || cos_l == 0.0 {
                     return None;
                 }
-                let pdf = pmf / t.area() * dist2 / cos_l.abs();
+                let pdf = lp.pdf * dist2 / cos_l.abs();
                 if !(pdf.is_finite() && pdf > 0.0) {
                     return None;
                 }
-                let target = offset_ray_origin(q, interpolation_error(&t.p, b.x, b.y), face_towards(n, -wi));
+                let target = offset_ray_origin(q, lp.p_error, face_towards(n, -wi));
                 Some(LightSample {
                     p: q,
                     n: Some(n),
@@ -140,6 +182,7 @@ impl LightSampler {
                 })
             }
             LightRef::Punctual(li) => {
+                let pmf = lp.pdf;
                 let l = &scene.lights[li as usize];
                 match l {
                     PunctualLight::Directional { direction, irradiance } => Some(LightSample {
@@ -152,7 +195,7 @@ impl LightSampler {
                         pdf: 0.0,
                     }),
                     _ => {
-                        let q = l.position().unwrap();
+                        let q = lp.p;
                         let to = q - p;
                         let dist2 = to.length_squared();
                         if !(dist2 > 0.0) {

@@ -1,0 +1,104 @@
+//! Direct light (the `Direct` component) for camera gather data: light arriving at a shading
+//! point or scattered along a camera media segment straight from an emitter. Emitters seen
+//! directly are already in `GatherSet::emitted`.
+use crate::{
+    TraceScene,
+    camera_paths::{MediaSegment, ShadingPoint},
+    context::MAX_CROSSINGS,
+    geometry::{face_towards, offset_ray_origin, triangle_error_bound},
+    media,
+};
+use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling};
+use glam::{Vec2, Vec3};
+
+/// Direct light at a shading point: one light sample and one BSDF sample, combined with the
+/// power heuristic (as the path tracer does at its first vertex).
+pub fn direct_at_surface(ts: &TraceScene, sp: &ShadingPoint, s: &mut Sampler) -> Rgb {
+    let scene = &ts.scene;
+    let Some(bsdf) = scene.bsdf_at(sp.material, Some(Vec2::from(sp.uv))) else {
+        return Rgb::ZERO;
+    };
+    let p = Vec3::from(sp.pos);
+    let tri = &scene.triangles[sp.tri as usize];
+    let ng = tri.cross().normalize();
+    let err = triangle_error_bound(&tri.p);
+    let frame = Frame::from_normal(Vec3::from(sp.normal));
+    let wo = Vec3::from(sp.wo);
+    let wo_l = frame.to_local(wo);
+    let mut l = Rgb::ZERO;
+    // Light sampling.
+    if let Some(ls) = ts.lights.sample(scene, p, s) {
+        let wi_l = frame.to_local(ls.wi);
+        let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+        if ng.dot(ls.wi) * ng.dot(wo) > 0.0 && f != Rgb::ZERO {
+            let origin = offset_ray_origin(p, err, face_towards(ng, ls.wi));
+            let tr = ts.shadow_transmittance(origin, &ls, sp.medium(), s);
+            let w = if ls.pdf > 0.0 {
+                sampling::power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
+            } else {
+                1.0
+            };
+            l += f * tr * ls.contribution * w;
+        }
+    }
+    // BSDF sampling: follow the ray through invisible boundaries to the first surface; if it
+    // emits towards us, weight by transmittance and the MIS weight.
+    if let Some(bs) = bsdf.sample(wo_l, s.next_2d(), s.next_1d()) {
+        let wi = frame.to_world(bs.wi);
+        if !bs.is_delta && ng.dot(wi) * ng.dot(wo) > 0.0 {
+            let mut o = offset_ray_origin(p, err, face_towards(ng, wi));
+            let mut medium = sp.medium();
+            let mut tr = Rgb::ONE;
+            for _ in 0..MAX_CROSSINGS {
+                let Some((h, hit)) = ts.intersect(o, wi, f32::INFINITY) else {
+                    break;
+                };
+                tr *= ts.medium_transmittance(medium, o, wi, h.t, s);
+                let m = ts.material(&hit);
+                if m.bsdf.is_none() {
+                    if let Some(iface) = scene.triangles[hit.tri as usize].interface {
+                        medium = iface.entered(hit.ng, wi);
+                    }
+                    o = hit.spawn(wi);
+                    continue;
+                }
+                if m.is_emissive() && (m.double_sided || hit.ng.dot(wi) < 0.0) {
+                    let light_pdf = ts.lights.pdf_hit(scene, p, hit.tri, hit.p);
+                    l += bs.weight * tr * m.emission * sampling::power_heuristic(bs.pdf, light_pdf);
+                }
+                break;
+            }
+        }
+    }
+    Rgb::from(sp.throughput) * l
+}
+
+/// Single scattering of direct light along a camera media segment: a point on a light, then
+/// a point on the segment sampled equiangularly towards it (Kulla & Fajardo 2012).
+pub fn direct_in_medium(ts: &TraceScene, seg: &MediaSegment, s: &mut Sampler) -> Rgb {
+    let scene = &ts.scene;
+    let m = &scene.media[seg.medium as usize];
+    let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+    let Some(lp) = ts.lights.sample_point(scene, s) else {
+        return Rgb::ZERO;
+    };
+    let directional = ts.lights.connect(scene, &lp, o).is_some_and(|ls| !ls.dist.is_finite());
+    let (t, pdf_t) = if directional {
+        // No point to aim at: sample the segment uniformly.
+        (s.next_1d() * seg.length, 1.0 / seg.length)
+    } else {
+        sampling::equiangular(o, d, 0.0, seg.length, lp.p, s.next_1d())
+    };
+    if !(pdf_t > 0.0) || !pdf_t.is_finite() {
+        return Rgb::ZERO;
+    }
+    let x = o + d * t;
+    let Some(ls) = ts.lights.connect(scene, &lp, x) else {
+        return Rgb::ZERO;
+    };
+    let phase = HenyeyGreenstein { g: m.g }.eval(-d, ls.wi);
+    let sigma_s = m.sigma_s * m.density_at(x);
+    let t_cam = media::transmittance(m, o, d, t, s);
+    let tr = ts.shadow_transmittance(x, &ls, Some(seg.medium), s);
+    Rgb::from(seg.throughput) * sigma_s * t_cam * tr * ls.contribution * phase / pdf_t
+}
