@@ -1,6 +1,10 @@
 //! The `beamlight` command line: `render`, `compare`, `info`.
 use anyhow::{Context, Result, bail};
-use beamlight_render::{Budget, Method, RenderOptions, compare, components::SceneFeatures, output};
+use beamlight_render::{
+    Budget, Method, RenderOptions, compare,
+    components::{Component, SceneFeatures},
+    output,
+};
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
 use beamlight_trace::{TraceScene, pt::PathTracerSettings};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -86,6 +90,10 @@ struct RenderArgs {
     /// Maximum scattering events per path (`pt`); 1 = direct light / single scattering only.
     #[arg(long)]
     max_depth: Option<u32>,
+    /// Also write each transport component (direct, Lsm, Lmm, Lms, Lss, caustic_surface,
+    /// caustic_volume) as its own EXR layer; `pt` classifies its paths the same way.
+    #[arg(long)]
+    components: bool,
 }
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
@@ -184,6 +192,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             ..Default::default()
         },
         start,
+        components: args.components,
     };
     let bar = progress_bar(&budget);
     let result = beamlight_render::render(&ts, &opts, |done, _| bar.set_position(done)).map_err(anyhow::Error::msg)?;
@@ -201,7 +210,13 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         ("beamlight.backend", backend.to_string()),
         ("beamlight.rejected_samples", result.film.rejected.to_string()),
     ];
-    output::write_exr(&args.output, &image, &metadata)?;
+    let layers: Vec<(Component, beamlight_render::Image)> = Component::ALL
+        .iter()
+        .zip(&result.components)
+        .map(|(c, f)| (*c, f.image()))
+        .collect();
+    let named: Vec<(&str, &beamlight_render::Image)> = layers.iter().map(|(c, i)| (c.name(), i)).collect();
+    output::write_exr_layers(&args.output, &image, &named, &metadata)?;
     if let Some(p) = &args.preview {
         output::write_png(p, &image, args.exposure)?;
     }

@@ -43,28 +43,97 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
 
 /// Writes a float32 RGB OpenEXR with `metadata` as string header attributes.
 pub fn write_exr(path: &Path, image: &Image, metadata: &[(&str, String)]) -> Result<(), OutputError> {
+    write_exr_layers(path, image, &[], metadata)
+}
+
+/// Writes a float32 OpenEXR whose first layer is the beauty image and whose further layers are
+/// `layers` (each R, G, B), with `metadata` as string header attributes of the beauty layer.
+/// With extra layers the file is multi-part and the beauty part is named "beauty".
+pub fn write_exr_layers(
+    path: &Path,
+    beauty: &Image,
+    layers: &[(&str, &Image)],
+    metadata: &[(&str, String)],
+) -> Result<(), OutputError> {
     use exr::{meta::attribute::*, prelude::*};
-    let w = image.width as usize;
-    let mut attrs = LayerAttributes {
-        software_name: Some(Text::from("beamlight")),
-        ..Default::default()
+    if let Some((name, _)) = layers
+        .iter()
+        .find(|(_, l)| (l.width, l.height) != (beauty.width, beauty.height))
+    {
+        return Err(err(path, format!("layer '{name}' differs in size from the image")));
+    }
+    // A file with several layers is multi-part, where every part needs a name.
+    let mut attrs = match layers.is_empty() {
+        true => LayerAttributes::default(),
+        false => LayerAttributes::named("beauty"),
     };
+    attrs.software_name = Some(Text::from("beamlight"));
     for (k, v) in metadata {
         attrs
             .other
             .insert(Text::from(*k), AttributeValue::Text(Text::from(v.as_str())));
     }
-    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
-        let p = image.pixels[pos.y() * w + pos.x()];
-        (p.x, p.y, p.z)
-    });
-    let layer = Layer::new((w, image.height as usize), attrs, Encoding::SMALL_LOSSLESS, channels);
+    fn rgb_layer(
+        image: &crate::Image,
+        attrs: LayerAttributes,
+    ) -> Layer<SpecificChannels<impl Fn(Vec2<usize>) -> (f32, f32, f32) + Sync + '_, RgbChannels>> {
+        let w = image.width as usize;
+        let channels = SpecificChannels::rgb(move |pos: Vec2<usize>| {
+            let p = image.pixels[pos.y() * w + pos.x()];
+            (p.x, p.y, p.z)
+        });
+        Layer::new((w, image.height as usize), attrs, Encoding::SMALL_LOSSLESS, channels)
+    }
+    let mut all = vec![rgb_layer(beauty, attrs)];
+    for (name, image) in layers {
+        all.push(rgb_layer(image, LayerAttributes::named(*name)));
+    }
     let mut bytes = Cursor::new(Vec::new());
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(&mut bytes)
-        .map_err(|e| err(path, e))?;
+    Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions((
+            beauty.width as usize,
+            beauty.height as usize,
+        ))),
+        all,
+    )
+    .write()
+    .to_buffered(&mut bytes)
+    .map_err(|e| err(path, e))?;
     write_atomic(path, bytes.get_ref())
+}
+
+/// Reads every RGB layer of an OpenEXR file by name ("" for an unnamed single layer).
+pub fn read_exr_layers(path: &Path) -> Result<Vec<(String, crate::Image)>, OutputError> {
+    use exr::prelude::*;
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |res, _| (res.width(), vec![Rgb::ZERO; res.width() * res.height()]),
+            |px: &mut (usize, Vec<Rgb>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                px.1[pos.y() * px.0 + pos.x()] = Rgb::new(r, g, b)
+            },
+        )
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| err(path, format!("cannot read OpenEXR: {e}")))?;
+    Ok(img
+        .layer_data
+        .into_iter()
+        .map(|l| {
+            let name = l.attributes.layer_name.map(|n| n.to_string()).unwrap_or_default();
+            let (w, h) = (l.size.width() as u32, l.size.height() as u32);
+            (
+                name,
+                crate::Image {
+                    width: w,
+                    height: h,
+                    pixels: l.channel_data.pixels.1,
+                },
+            )
+        })
+        .collect())
 }
 
 /// Reads the first RGB(A) layer of an OpenEXR file, with its string header attributes.
@@ -146,6 +215,24 @@ mod tests {
         assert!(meta.contains(&("beamlight.method".into(), "pt".into())));
         // No temporary file left behind.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn component_layers_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("layers.exr");
+        let mut beauty = Image::new(3, 2);
+        beauty.pixels[4] = Rgb::new(1.0, 2.0, 3.0);
+        let mut direct = Image::new(3, 2);
+        direct.pixels[1] = Rgb::new(0.5, 0.25, 0.125);
+        write_exr_layers(&path, &beauty, &[("direct", &direct), ("Lss", &Image::new(3, 2))], &[]).unwrap();
+        let layers = read_exr_layers(&path).unwrap();
+        let names: Vec<&str> = layers.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["beauty", "direct", "Lss"]);
+        assert_eq!(layers[0].1, beauty);
+        assert_eq!(layers[1].1, direct);
+        // Readers that take the first layer get the beauty image.
+        assert_eq!(read_exr(&path).unwrap().0, beauty);
     }
 
     #[test]

@@ -4,6 +4,7 @@ use crate::Film;
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
+    components::Component,
     pt::{self, PathTracerSettings},
 };
 use rayon::prelude::*;
@@ -55,10 +56,14 @@ pub struct RenderOptions {
     pub path_tracer: PathTracerSettings,
     /// The moment the time budget counts from (process start, so start-up is included).
     pub start: Instant,
+    /// Also accumulate each transport component separately (`RenderResult::components`).
+    pub components: bool,
 }
 
 pub struct RenderResult {
     pub film: Film,
+    /// One film per component in `Component::ALL` order, when `RenderOptions::components`.
+    pub components: Vec<Film>,
     pub passes: u64,
     pub elapsed: Duration,
 }
@@ -78,6 +83,9 @@ pub fn render(
     let (w, h) = (opts.width, opts.height);
     let mut film = Film::new(w, h);
     let mut buffer = vec![Rgb::ZERO; (w * h) as usize];
+    let n_components = if opts.components { Component::ALL.len() } else { 0 };
+    let mut components: Vec<Film> = (0..n_components).map(|_| Film::new(w, h)).collect();
+    let mut component_buffers = vec![vec![Rgb::ZERO; (w * h) as usize]; n_components];
     let started = Instant::now();
     let total = match opts.budget {
         Budget::Passes(n) => Some(n),
@@ -97,19 +105,33 @@ pub fn render(
             _ => {}
         }
         let pass = (opts.first_pass + passes) as u32;
-        path_trace_pass(ts, &opts.path_tracer, w, h, opts.seed, pass, &mut buffer);
+        path_trace_pass(
+            ts,
+            &opts.path_tracer,
+            w,
+            h,
+            opts.seed,
+            pass,
+            &mut buffer,
+            &mut component_buffers,
+        );
         film.add_pass(&buffer);
+        for (f, b) in components.iter_mut().zip(&component_buffers) {
+            f.add_pass(b);
+        }
         passes += 1;
         on_pass(passes, total);
     }
     Ok(RenderResult {
         film,
+        components,
         passes,
         elapsed: started.elapsed(),
     })
 }
 
-/// One sample per pixel, rows in parallel.
+/// One sample per pixel, rows in parallel; with component buffers (one per `Component::ALL`
+/// entry, or none) also each pixel's sample split by component.
 pub fn path_trace_pass(
     ts: &TraceScene,
     settings: &PathTracerSettings,
@@ -118,12 +140,35 @@ pub fn path_trace_pass(
     seed: u32,
     pass: u32,
     out: &mut [Rgb],
+    components: &mut [Vec<Rgb>],
 ) {
-    out.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
-        for (x, px) in row.iter_mut().enumerate() {
-            let index = y as u32 * w + x as u32;
-            let mut s = Sampler::new(seed, pass, index);
-            *px = pt::sample_pixel(ts, settings, x as u32, y as u32, w, h, &mut s);
+    let split = !components.is_empty();
+    let mut per_pixel = vec![[Rgb::ZERO; Component::ALL.len()]; if split { out.len() } else { 0 }];
+    let rows = out.par_chunks_mut(w as usize).enumerate();
+    if split {
+        rows.zip(per_pixel.par_chunks_mut(w as usize))
+            .for_each(|((y, row), comps)| {
+                for (x, (px, c)) in row.iter_mut().zip(comps.iter_mut()).enumerate() {
+                    let mut s = Sampler::new(seed, pass, y as u32 * w + x as u32);
+                    let mut sum = Rgb::ZERO;
+                    pt::sample_pixel_split(ts, settings, x as u32, y as u32, w, h, &mut s, &mut |k, l| {
+                        c[k as usize] += l;
+                        sum += l;
+                    });
+                    *px = sum;
+                }
+            });
+        for (i, c) in per_pixel.iter().enumerate() {
+            for (k, buffer) in components.iter_mut().enumerate() {
+                buffer[i] = c[k];
+            }
         }
-    });
+    } else {
+        rows.for_each(|(y, row)| {
+            for (x, px) in row.iter_mut().enumerate() {
+                let mut s = Sampler::new(seed, pass, y as u32 * w + x as u32);
+                *px = pt::sample_pixel(ts, settings, x as u32, y as u32, w, h, &mut s);
+            }
+        });
+    }
 }

@@ -40,6 +40,22 @@ pub fn sample_pixel(
     height: u32,
     s: &mut Sampler,
 ) -> Rgb {
+    let mut l = Rgb::ZERO;
+    sample_pixel_split(ts, settings, x, y, width, height, s, &mut |_, c| l += c);
+    l
+}
+
+/// [`sample_pixel`] with every contribution handed to `sink` with its transport component.
+pub fn sample_pixel_split(
+    ts: &TraceScene,
+    settings: &PathTracerSettings,
+    x: u32,
+    y: u32,
+    width: u32,
+    height: u32,
+    s: &mut Sampler,
+    sink: &mut impl FnMut(Component, Rgb),
+) {
     let jitter = s.next_2d();
     let film = Vec2::new(
         (x as f32 + jitter.x) / width as f32,
@@ -47,7 +63,7 @@ pub fn sample_pixel(
     );
     let cam = &ts.scene.camera;
     let d = cam.direction(film, width as f32 / height as f32);
-    radiance(ts, settings, cam.position(), d, ts.camera_medium, s)
+    radiance_split(ts, settings, cam.position(), d, ts.camera_medium, s, sink)
 }
 
 /// Radiance arriving at `o` from direction `-d`, for a ray starting in `medium`.
