@@ -73,6 +73,8 @@ pub fn write_exr_layers(
             .other
             .insert(Text::from(*k), AttributeValue::Text(Text::from(v.as_str())));
     }
+    // The exr crate's type for an RGB layer read through a closure.
+    #[allow(clippy::type_complexity)]
     fn rgb_layer(
         image: &crate::Image,
         attrs: LayerAttributes,
