@@ -270,15 +270,34 @@ fn components_are_written_as_layers_that_add_up_to_the_image() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("c.exr");
     let scene = root().join("assets/scenes/cornell_fog.toml");
-    let o = render(&scene, &out, &["--spp", "4", "--width", "24", "--height", "24", "--components"]);
+    let o = render(
+        &scene,
+        &out,
+        &["--spp", "4", "--width", "24", "--height", "24", "--components"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let layers = beamlight_render::output::read_exr_layers(&out).unwrap();
     let names: Vec<&str> = layers.iter().map(|(n, _)| n.as_str()).collect();
-    assert_eq!(names, ["beauty", "direct", "Lsm", "Lmm", "Lms", "Lss", "caustic_surface", "caustic_volume"]);
+    assert_eq!(
+        names,
+        [
+            "beauty",
+            "direct",
+            "Lsm",
+            "Lmm",
+            "Lms",
+            "Lss",
+            "caustic_surface",
+            "caustic_volume"
+        ]
+    );
     let beauty = &layers[0].1;
     for (i, p) in beauty.pixels.iter().enumerate() {
         let sum: glam::Vec3 = layers[1..].iter().map(|(_, l)| l.pixels[i]).sum();
-        assert!((sum - *p).abs().max_element() <= 1e-4 * (1.0 + p.max_element()), "pixel {i}: {sum} vs {p}");
+        assert!(
+            (sum - *p).abs().max_element() <= 1e-4 * (1.0 + p.max_element()),
+            "pixel {i}: {sum} vs {p}"
+        );
     }
     // The fog box has every non-caustic component (no mirror or glass: no caustics).
     for (name, layer) in &layers[1..] {

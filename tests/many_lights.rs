@@ -16,7 +16,7 @@ use beamlight_trace::{
 use common::*;
 use glam::{DVec3, Vec2, Vec3};
 
-fn fog_box(w: u32, h: u32) -> Scene {
+fn fog_box(w: u32, h: u32, lumpy: bool) -> Scene {
     let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.2, -0.3, -1.0), 70.0, w, h);
     let wall = add_material(&mut s, lambert("wall", 0.6));
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
@@ -28,7 +28,24 @@ fn fog_box(w: u32, h: u32) -> Scene {
         Vec3::new(0.0, 0.0, 0.6),
         light,
     );
-    s.media.push(homogeneous(Rgb::new(0.6, 0.4, 0.5), Rgb::splat(0.1), 0.3));
+    let mut m = homogeneous(Rgb::new(0.6, 0.4, 0.5), Rgb::splat(0.1), 0.3);
+    if lumpy {
+        // A smooth lump of density over the box (zero outside it), for delta/ratio tracking.
+        let res = glam::UVec3::splat(12);
+        let values = (0..res.x * res.y * res.z)
+            .map(|i| {
+                let c = glam::UVec3::new(i % 12, i / 12 % 12, i / 144).as_vec3() / 11.0 - 0.5;
+                1.5 * (-4.0 * c.length_squared()).exp()
+            })
+            .collect();
+        m.density = Some(beamlight_scene::medium::DensityGrid::new(
+            res,
+            Vec3::splat(-1.0),
+            Vec3::splat(1.0),
+            values,
+        ));
+    }
+    s.media.push(m);
     s.global_medium = Some(0);
     s
 }
@@ -62,8 +79,17 @@ fn pt_components(ts: &TraceScene, spp: u32) -> [DVec3; 7] {
 
 #[test]
 fn unclamped_vpls_and_vrls_match_the_path_tracer_per_component() {
+    components_match(false);
+}
+
+#[test]
+fn the_same_holds_in_a_heterogeneous_medium() {
+    components_match(true);
+}
+
+fn components_match(lumpy: bool) {
     let (w, h) = (4u32, 4u32);
-    let ts = TraceScene::new(fog_box(w, h));
+    let ts = TraceScene::new(fog_box(w, h, lumpy));
     let reference = pt_components(&ts, 16384);
 
     let (passes, paths) = (384u32, 200u32);
