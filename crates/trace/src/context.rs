@@ -1,7 +1,7 @@
 //! A scene prepared for tracing: BVH, light sampler and the media the rays start in.
 use crate::{
     bvh::{Bvh, Hit},
-    geometry::{face_towards, interpolation_error, offset_ray_origin},
+    geometry::{face_towards, interpolation_error, offset_ray_origin, triangle_error_bound},
     lights::{LightSample, LightSampler},
     media,
 };
@@ -84,6 +84,14 @@ impl TraceScene {
             material: t.material,
             uv: t.uv_at(h.b1, h.b2),
         }
+    }
+
+    /// Origin for a ray leaving the point `p` of triangle `tri` towards `w`, for points known
+    /// only by position (recorded gather points and light vertices): the offset uses an error
+    /// bound valid anywhere on the triangle.
+    pub fn spawn_from_triangle(&self, tri: u32, p: Vec3, w: Vec3) -> Vec3 {
+        let t = &self.scene.triangles[tri as usize];
+        offset_ray_origin(p, triangle_error_bound(&t.p), face_towards(t.cross().normalize(), w))
     }
 
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(Hit, SurfaceHit)> {

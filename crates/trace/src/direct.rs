@@ -5,7 +5,6 @@ use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
     context::MAX_CROSSINGS,
-    geometry::{face_towards, offset_ray_origin, triangle_error_bound},
     media,
 };
 use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling};
@@ -19,9 +18,7 @@ pub fn direct_at_surface(ts: &TraceScene, sp: &ShadingPoint, s: &mut Sampler) ->
         return Rgb::ZERO;
     };
     let p = Vec3::from(sp.pos);
-    let tri = &scene.triangles[sp.tri as usize];
-    let ng = tri.cross().normalize();
-    let err = triangle_error_bound(&tri.p);
+    let ng = scene.triangles[sp.tri as usize].cross().normalize();
     let frame = Frame::from_normal(Vec3::from(sp.normal));
     let wo = Vec3::from(sp.wo);
     let wo_l = frame.to_local(wo);
@@ -31,7 +28,7 @@ pub fn direct_at_surface(ts: &TraceScene, sp: &ShadingPoint, s: &mut Sampler) ->
         let wi_l = frame.to_local(ls.wi);
         let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
         if ng.dot(ls.wi) * ng.dot(wo) > 0.0 && f != Rgb::ZERO {
-            let origin = offset_ray_origin(p, err, face_towards(ng, ls.wi));
+            let origin = ts.spawn_from_triangle(sp.tri, p, ls.wi);
             let tr = ts.shadow_transmittance(origin, &ls, sp.medium(), s);
             let w = if ls.pdf > 0.0 {
                 sampling::power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
@@ -46,7 +43,7 @@ pub fn direct_at_surface(ts: &TraceScene, sp: &ShadingPoint, s: &mut Sampler) ->
     if let Some(bs) = bsdf.sample(wo_l, s.next_2d(), s.next_1d()) {
         let wi = frame.to_world(bs.wi);
         if !bs.is_delta && ng.dot(wi) * ng.dot(wo) > 0.0 {
-            let mut o = offset_ray_origin(p, err, face_towards(ng, wi));
+            let mut o = ts.spawn_from_triangle(sp.tri, p, wi);
             let mut medium = sp.medium();
             let mut tr = Rgb::ONE;
             for _ in 0..MAX_CROSSINGS {

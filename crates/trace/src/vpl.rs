@@ -5,7 +5,6 @@
 use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
-    geometry::{face_towards, offset_ray_origin, triangle_error_bound},
     light_paths::SurfaceVertex,
     lights::LightSample,
     media,
@@ -40,32 +39,27 @@ pub fn vpl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vpl: &SurfaceVertex, s
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let (ng_sp, ng_vpl) = (tri_normal(ts, sp.tri), tri_normal(ts, vpl.tri));
-    let origin = offset_ray_origin(
-        p,
-        triangle_error_bound(&scene.triangles[sp.tri as usize].p),
-        face_towards(ng_sp, w),
-    );
-    let target = offset_ray_origin(
-        q,
-        triangle_error_bound(&scene.triangles[vpl.tri as usize].p),
-        face_towards(ng_vpl, -w),
-    );
-    let shadow = LightSample {
+    let origin = ts.spawn_from_triangle(sp.tri, p, w);
+    let shadow = shadow_to_vpl(ts, vpl, w, dist);
+    let tr = ts.shadow_transmittance(origin, &shadow, sp.medium(), s);
+    Rgb::from(sp.throughput) * Rgb::from(vpl.power) * f * tr / d2
+}
+
+/// A shadow ray's end at a VPL seen along `w` from `dist` away: just off the VPL's surface on
+/// the viewer's side.
+fn shadow_to_vpl(ts: &TraceScene, vpl: &SurfaceVertex, w: Vec3, dist: f32) -> LightSample {
+    let q = Vec3::from(vpl.pos);
+    let target = ts.spawn_from_triangle(vpl.tri, q, -w);
+    let n = ts.scene.triangles[vpl.tri as usize].cross().normalize();
+    LightSample {
         p: q,
-        n: Some(ng_vpl),
+        n: Some(n),
         wi: w,
         dist,
         target,
         contribution: Rgb::ONE,
         pdf: 0.0,
-    };
-    let tr = ts.shadow_transmittance(origin, &shadow, sp.medium(), s);
-    Rgb::from(sp.throughput) * Rgb::from(vpl.power) * f * tr / d2
-}
-
-fn tri_normal(ts: &TraceScene, tri: u32) -> Vec3 {
-    ts.scene.triangles[tri as usize].cross().normalize()
+    }
 }
 
 /// Radiance a VPL scatters into the pixel of a camera media segment (`Lms`, surface → media),
@@ -100,21 +94,7 @@ pub fn vpl_to_media(ts: &TraceScene, seg: &MediaSegment, vpl: &SurfaceVertex, s:
     }
     let sigma_s = m.sigma_s * m.density_at(x);
     let t_cam = media::transmittance(m, o, d, t, s);
-    let ng_vpl = ts.scene.triangles[vpl.tri as usize].cross().normalize();
-    let target = offset_ray_origin(
-        q,
-        triangle_error_bound(&scene.triangles[vpl.tri as usize].p),
-        face_towards(ng_vpl, -w),
-    );
-    let shadow = LightSample {
-        p: q,
-        n: Some(ng_vpl),
-        wi: w,
-        dist,
-        target,
-        contribution: Rgb::ONE,
-        pdf: 0.0,
-    };
+    let shadow = shadow_to_vpl(ts, vpl, w, dist);
     let tr = ts.shadow_transmittance(x, &shadow, Some(seg.medium), s);
     Rgb::from(seg.throughput) * sigma_s * t_cam * Rgb::from(vpl.power) * f * tr / (d2 * pdf)
 }

@@ -9,7 +9,6 @@
 use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
-    geometry::{face_towards, offset_ray_origin, triangle_error_bound},
     light_paths::LightSegment,
     lights::LightSample,
     media,
@@ -60,12 +59,7 @@ pub fn vrl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vrl: &LightSegment, s:
     }
     let sigma_s = m.sigma_s * m.density_at(y);
     let t_vrl = media::transmittance(m, ov, dv, u, s);
-    let ng = scene.triangles[sp.tri as usize].cross().normalize();
-    let origin = offset_ray_origin(
-        p,
-        triangle_error_bound(&scene.triangles[sp.tri as usize].p),
-        face_towards(ng, w),
-    );
+    let origin = ts.spawn_from_triangle(sp.tri, p, w);
     let tr = ts.shadow_transmittance(origin, &shadow, sp.medium(), s);
     let d2 = shadow.dist * shadow.dist;
     Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * f * tr / (d2 * pdf)
