@@ -306,3 +306,57 @@ fn components_are_written_as_layers_that_add_up_to_the_image() {
         assert_eq!(mean == 0.0, caustic, "{name}: mean {mean}");
     }
 }
+
+#[test]
+fn vrl_renders_the_fog_box_with_its_components_and_refuses_caustic_scenes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v.exr");
+    let scene = root().join("assets/scenes/cornell_fog.toml");
+    let o = beamlight(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        "vrl",
+        "--passes",
+        "2",
+        "--width",
+        "12",
+        "--height",
+        "12",
+        "--light-paths",
+        "8",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let layers = beamlight_render::output::read_exr_layers(&out).unwrap();
+    assert_eq!(layers.len(), 8, "beauty + 7 components");
+    assert!(layers.iter().all(|(_, l)| l.pixels.iter().all(|p| p.is_finite())));
+    assert!(layers[0].1.mean().max_element() > 0.0);
+    // A glass sphere needs caustics, which the many-light methods cannot do yet: a clear error.
+    let gltf = dir.path().join("glass.gltf");
+    let mut b = beamlight_scene::gltf_writer::GltfBuilder::new();
+    let glass = b.material(beamlight_scene::gltf_writer::MaterialDesc::glass("Glass", 1.5));
+    let (p, i) = beamlight_scene::gltf_writer::shapes::uv_sphere(glam::Vec3::ZERO, 0.5, 8, 16);
+    b.mesh("Ball", &p, &i, None, Some(glass));
+    b.point_light("Lamp", glam::Vec3::new(0.0, 2.0, 0.0), [1.0; 3], 10.0);
+    b.camera_look_at(
+        "Camera",
+        glam::Vec3::new(0.0, 0.0, 3.0),
+        glam::Vec3::ZERO,
+        glam::Vec3::Y,
+        0.8,
+        None,
+    );
+    b.write_gltf(&gltf).unwrap();
+    let o = beamlight(&[
+        "render",
+        gltf.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        "vrl",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("mirror or glass"), "{}", stderr(&o));
+}

@@ -1,20 +1,18 @@
-//! The many-light gathers against the path tracer, component by component: in a fog-filled box
-//! of Lambert walls, direct light and unclamped VPLs and VRLs gathered from camera shading
-//! points and media segments must converge to the path tracer's Direct, Lss, Lms, Lsm and Lmm (its contributions
-//! classified by the same path decomposition, see `beamlight_trace::components`).
+//! `--method vrl` against the path tracer, component by component: in a fog-filled box of
+//! Lambert walls, direct light and unclamped VPLs and VRLs gathered from camera shading points
+//! and media segments must converge to the path tracer's Direct, Lss, Lms, Lsm and Lmm (its
+//! contributions classified by the same path decomposition, see `beamlight_trace::components`).
 mod common;
+use beamlight_render::{Budget, Method, RenderOptions, many_lights::ManyLightSettings, render};
 use beamlight_scene::{Rgb, Scene, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
-    camera_paths::{CameraPathSettings, trace_camera_paths},
     components::Component,
-    direct,
-    light_paths::{LightTracerSettings, trace_light_paths},
     pt::{self, PathTracerSettings},
-    vpl, vrl,
 };
 use common::*;
 use glam::{DVec3, Vec2, Vec3};
+use std::time::Instant;
 
 fn fog_box(w: u32, h: u32, lumpy: bool) -> Scene {
     let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.2, -0.3, -1.0), 70.0, w, h);
@@ -92,36 +90,29 @@ fn components_match(lumpy: bool) {
     let ts = TraceScene::new(fog_box(w, h, lumpy));
     let reference = pt_components(&ts, 16384);
 
-    let (passes, paths) = (384u32, 200u32);
-    let mut sum = [DVec3::ZERO; 7];
-    for pass in 0..passes {
-        let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, 12, pass);
-        let lights = trace_light_paths(&ts, &LightTracerSettings::default(), paths, 13, pass);
-        let m = lights.paths as f32;
-        let mut s = Sampler::new(14, pass, 0);
-        for e in &gather.emitted {
-            sum[Component::Direct as usize] += e.as_dvec3();
-        }
-        for sp in &gather.shading_points {
-            sum[Component::Direct as usize] += direct::direct_at_surface(&ts, sp, &mut s).as_dvec3();
-            for v in &lights.vpls {
-                sum[Component::Lss as usize] += (vpl::vpl_to_surface(&ts, sp, v, &mut s) / m).as_dvec3();
-            }
-            for r in &lights.vrls {
-                sum[Component::Lsm as usize] += (vrl::vrl_to_surface(&ts, sp, r, &mut s) / m).as_dvec3();
-            }
-        }
-        for seg in &gather.media_segments {
-            sum[Component::Direct as usize] += direct::direct_in_medium(&ts, seg, &mut s).as_dvec3();
-            for v in &lights.vpls {
-                sum[Component::Lms as usize] += (vpl::vpl_to_media(&ts, seg, v, &mut s) / m).as_dvec3();
-            }
-            for r in &lights.vrls {
-                sum[Component::Lmm as usize] += (vrl::vrl_to_media(&ts, seg, r, &mut s) / m).as_dvec3();
-            }
-        }
-    }
-    let ours = sum.map(|v| v / (passes as f64 * (w * h) as f64));
+    // The orchestrator's `vrl` passes, with every component kept apart.
+    let opts = RenderOptions {
+        method: Method::Vrl,
+        width: w,
+        height: h,
+        budget: Budget::Passes(384),
+        seed: 12,
+        first_pass: 0,
+        path_tracer: PathTracerSettings::default(),
+        start: Instant::now(),
+        components: true,
+        many_lights: ManyLightSettings {
+            light_paths_per_pass: 200,
+        },
+    };
+    let result = render(&ts, &opts, |_, _| {}).unwrap();
+    assert_eq!(result.film.rejected, 0);
+    let ours: Vec<DVec3> = result.components.iter().map(|f| f.image().mean().as_dvec3()).collect();
+    let beauty = result.film.image().mean().as_dvec3();
+    assert!(
+        (ours.iter().sum::<DVec3>() - beauty).abs().max_element() < 1e-5,
+        "components must add up to the image"
+    );
     for c in [
         Component::Direct,
         Component::Lss,

@@ -3,6 +3,7 @@ use anyhow::{Context, Result, bail};
 use beamlight_render::{
     Budget, Method, RenderOptions, compare,
     components::{Component, SceneFeatures},
+    many_lights::ManyLightSettings,
     output,
 };
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
@@ -94,6 +95,9 @@ struct RenderArgs {
     /// caustic_volume) as its own EXR layer; `pt` classifies its paths the same way.
     #[arg(long)]
     components: bool,
+    /// Light paths traced per pass by the many-light methods (each leaves several VPLs/VRLs).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..))]
+    light_paths: u32,
 }
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
@@ -129,15 +133,15 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         MethodArg::VrlClamped => Method::VrlClamped,
         MethodArg::Vbl => Method::Vbl,
     };
-    if method != Method::Pt {
+    if matches!(method, Method::VrlClamped | Method::Vbl) {
         bail!(
-            "--method {} is not implemented yet; use --method pt (the reference path tracer)",
+            "--method {} is not implemented yet; use --method pt (the reference) or vrl",
             method.name()
         );
     }
     let backend = match args.backend {
         BackendArg::Gpu => {
-            bail!("--backend gpu: the path tracer runs on the CPU only (GPU kernels serve the many-light methods)")
+            bail!("--backend gpu: there are no GPU kernels yet; every method runs on the CPU")
         }
         BackendArg::Auto | BackendArg::Cpu => "cpu",
     };
@@ -192,7 +196,11 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             ..Default::default()
         },
         start,
-        components: args.components,
+        // The many-light methods always keep their components apart (and write them).
+        components: args.components || method != Method::Pt,
+        many_lights: ManyLightSettings {
+            light_paths_per_pass: args.light_paths,
+        },
     };
     let bar = progress_bar(&budget);
     let result = beamlight_render::render(&ts, &opts, |done, _| bar.set_position(done)).map_err(anyhow::Error::msg)?;

@@ -5,6 +5,7 @@
 pub mod compare;
 pub mod components;
 pub mod film;
+pub mod many_lights;
 pub mod output;
 pub mod progressive;
 pub mod radius;

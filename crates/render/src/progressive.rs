@@ -1,6 +1,10 @@
 //! The progressive loop: independent passes, each a pure function of
 //! `(scene, settings, seed, pass index)`, averaged into a [`Film`] until the budget runs out.
-use crate::Film;
+use crate::{
+    Film,
+    components::SceneFeatures,
+    many_lights::{self, ManyLightSettings},
+};
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
@@ -58,6 +62,7 @@ pub struct RenderOptions {
     pub start: Instant,
     /// Also accumulate each transport component separately (`RenderResult::components`).
     pub components: bool,
+    pub many_lights: ManyLightSettings,
 }
 
 pub struct RenderResult {
@@ -74,11 +79,15 @@ pub fn render(
     opts: &RenderOptions,
     mut on_pass: impl FnMut(u64, Option<u64>),
 ) -> Result<RenderResult, String> {
-    if opts.method != Method::Pt {
-        return Err(format!(
-            "method '{}' is not available yet: only 'pt' (the reference path tracer) is implemented in this version",
-            opts.method.name()
-        ));
+    match opts.method {
+        Method::Pt => {}
+        Method::Vrl => many_lights::check_supported(&SceneFeatures::of(&ts.scene))?,
+        Method::VrlClamped | Method::Vbl => {
+            return Err(format!(
+                "method '{}' is not available yet: use 'pt' (the reference) or 'vrl'",
+                opts.method.name()
+            ));
+        }
     }
     let (w, h) = (opts.width, opts.height);
     let mut film = Film::new(w, h);
@@ -86,6 +95,10 @@ pub fn render(
     let n_components = if opts.components { Component::ALL.len() } else { 0 };
     let mut components: Vec<Film> = (0..n_components).map(|_| Film::new(w, h)).collect();
     let mut component_buffers = vec![vec![Rgb::ZERO; (w * h) as usize]; n_components];
+    let mut many_light_buffers: [Vec<Rgb>; Component::ALL.len()] = match opts.method {
+        Method::Pt => Default::default(),
+        _ => std::array::from_fn(|_| vec![Rgb::ZERO; (w * h) as usize]),
+    };
     let started = Instant::now();
     let total = match opts.budget {
         Budget::Passes(n) => Some(n),
@@ -105,16 +118,28 @@ pub fn render(
             _ => {}
         }
         let pass = (opts.first_pass + passes) as u32;
-        path_trace_pass(
-            ts,
-            &opts.path_tracer,
-            w,
-            h,
-            opts.seed,
-            pass,
-            &mut buffer,
-            &mut component_buffers,
-        );
+        if opts.method == Method::Pt {
+            path_trace_pass(
+                ts,
+                &opts.path_tracer,
+                w,
+                h,
+                opts.seed,
+                pass,
+                &mut buffer,
+                &mut component_buffers,
+            );
+        } else {
+            many_lights::many_light_pass(ts, &opts.many_lights, w, h, opts.seed, pass, &mut many_light_buffers);
+            for (i, px) in buffer.iter_mut().enumerate() {
+                *px = many_light_buffers.iter().map(|b| b[i]).sum();
+            }
+            if opts.components {
+                for (dst, src) in component_buffers.iter_mut().zip(&many_light_buffers) {
+                    dst.copy_from_slice(src);
+                }
+            }
+        }
         film.add_pass(&buffer);
         for (f, b) in components.iter_mut().zip(&component_buffers) {
             f.add_pass(b);
