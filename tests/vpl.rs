@@ -40,7 +40,7 @@ fn vpls_converge_to_the_path_tracers_indirect_light() {
         for (i, sp) in gather.shading_points.iter().enumerate() {
             let mut s = beamlight_scene::rng::Sampler::new(5, pass, i as u32);
             for vpl in &lights.vpls {
-                sum += (vpl_to_surface(&ts, sp, vpl, &mut s) / lights.paths as f32).as_dvec3();
+                sum += (vpl_to_surface(&ts, sp, vpl, 0.0, &mut s) / lights.paths as f32).as_dvec3();
             }
         }
     }

@@ -98,6 +98,9 @@ struct RenderArgs {
     /// Light paths traced per pass by the many-light methods (each leaves several VPLs/VRLs).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..))]
     light_paths: u32,
+    /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
+    #[arg(long)]
+    clamp_distance: Option<f32>,
 }
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
@@ -200,6 +203,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         components: args.components || method != Method::Pt,
         many_lights: ManyLightSettings {
             light_paths_per_pass: args.light_paths,
+            clamp: args.clamp_distance.unwrap_or(0.0),
         },
     };
     let bar = progress_bar(&budget);

@@ -21,14 +21,25 @@ use rayon::prelude::*;
 pub struct ManyLightSettings {
     /// Light paths traced per pass (each leaves several VPLs and VRLs).
     pub light_paths_per_pass: u32,
+    /// Minimum distance in the inverse-square falloff (`vrl-clamped`); 0 for unclamped `vrl`.
+    pub clamp: f32,
 }
 
 impl Default for ManyLightSettings {
     fn default() -> Self {
         Self {
             light_paths_per_pass: 64,
+            clamp: 0.0,
         }
     }
+}
+
+/// The default clamp distance of `vrl-clamped`: 5 % of the diagonal of the scene's bounds (the
+/// VRL paper leaves the choice to the user; a fixed share of the scene keeps it scale-free).
+pub fn default_clamp(scene: &beamlight_scene::Scene) -> f32 {
+    let (lo, hi) = scene.bounds();
+    let diagonal = (hi - lo).length();
+    if diagonal.is_finite() { 0.05 * diagonal } else { 0.0 }
 }
 
 /// Refuses scenes whose light needs components this version cannot compute.
@@ -82,13 +93,13 @@ pub fn many_light_pass(
             c[Component::Lss as usize] = lights
                 .vpls
                 .iter()
-                .map(|v| vpl::vpl_to_surface(ts, sp, v, &mut s))
+                .map(|v| vpl::vpl_to_surface(ts, sp, v, settings.clamp, &mut s))
                 .sum::<Rgb>()
                 / m;
             c[Component::Lsm as usize] = lights
                 .vrls
                 .iter()
-                .map(|v| vrl::vrl_to_surface(ts, sp, v, &mut s))
+                .map(|v| vrl::vrl_to_surface(ts, sp, v, settings.clamp, &mut s))
                 .sum::<Rgb>()
                 / m;
             (sp.pixel, c)
@@ -105,13 +116,13 @@ pub fn many_light_pass(
             c[Component::Lms as usize] = lights
                 .vpls
                 .iter()
-                .map(|v| vpl::vpl_to_media(ts, seg, v, &mut s))
+                .map(|v| vpl::vpl_to_media(ts, seg, v, settings.clamp, &mut s))
                 .sum::<Rgb>()
                 / m;
             c[Component::Lmm as usize] = lights
                 .vrls
                 .iter()
-                .map(|v| vrl::vrl_to_media(ts, seg, v, &mut s))
+                .map(|v| vrl::vrl_to_media(ts, seg, v, settings.clamp, &mut s))
                 .sum::<Rgb>()
                 / m;
             (seg.pixel, c)

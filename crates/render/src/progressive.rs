@@ -81,14 +81,23 @@ pub fn render(
 ) -> Result<RenderResult, String> {
     match opts.method {
         Method::Pt => {}
-        Method::Vrl => many_lights::check_supported(&SceneFeatures::of(&ts.scene))?,
-        Method::VrlClamped | Method::Vbl => {
+        Method::Vrl | Method::VrlClamped => many_lights::check_supported(&SceneFeatures::of(&ts.scene))?,
+        Method::Vbl => {
             return Err(format!(
-                "method '{}' is not available yet: use 'pt' (the reference) or 'vrl'",
+                "method '{}' is not available yet: use 'pt' (the reference), 'vrl' or 'vrl-clamped'",
                 opts.method.name()
             ));
         }
     }
+    // `vrl` is unclamped by definition; `vrl-clamped` uses the given distance or the default.
+    let many_light_settings = ManyLightSettings {
+        clamp: match opts.method {
+            Method::VrlClamped if opts.many_lights.clamp > 0.0 => opts.many_lights.clamp,
+            Method::VrlClamped => many_lights::default_clamp(&ts.scene),
+            _ => 0.0,
+        },
+        ..opts.many_lights
+    };
     let (w, h) = (opts.width, opts.height);
     let mut film = Film::new(w, h);
     let mut buffer = vec![Rgb::ZERO; (w * h) as usize];
@@ -130,7 +139,7 @@ pub fn render(
                 &mut component_buffers,
             );
         } else {
-            many_lights::many_light_pass(ts, &opts.many_lights, w, h, opts.seed, pass, &mut many_light_buffers);
+            many_lights::many_light_pass(ts, &many_light_settings, w, h, opts.seed, pass, &mut many_light_buffers);
             for (i, px) in buffer.iter_mut().enumerate() {
                 *px = many_light_buffers.iter().map(|b| b[i]).sum();
             }

@@ -12,10 +12,19 @@ use crate::{
 use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling};
 use glam::{Vec2, Vec3};
 
+/// The inverse-square falloff between a virtual light and a gather point, `1 / max(d², c²)`:
+/// with `clamp` c = 0 exact (unclamped, unbiased but singular as d → 0); with c > 0 the
+/// clamped variant the VRL paper compares against, which bounds every contribution and loses
+/// the energy of all pairs closer than c.
+#[inline]
+pub fn falloff(d2: f32, clamp: f32) -> f32 {
+    1.0 / d2.max(clamp * clamp)
+}
+
 /// Radiance a VPL sends to the pixel of `sp`, per light path traced (divide the sum over a
 /// light set by its path count): Φ · f_vpl(wi → ω) |cos| · f_sp(ω → wo) |cos| / d² · T · V.
 /// The shadow ray starts in the shading point's medium.
-pub fn vpl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vpl: &SurfaceVertex, s: &mut Sampler) -> Rgb {
+pub fn vpl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vpl: &SurfaceVertex, clamp: f32, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let (p, q) = (Vec3::from(sp.pos), Vec3::from(vpl.pos));
     let to = q - p;
@@ -42,7 +51,7 @@ pub fn vpl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vpl: &SurfaceVertex, s
     let origin = ts.spawn_from_triangle(sp.tri, p, w);
     let shadow = shadow_to_vpl(ts, vpl, w, dist);
     let tr = ts.shadow_transmittance(origin, &shadow, sp.medium(), s);
-    Rgb::from(sp.throughput) * Rgb::from(vpl.power) * f * tr / d2
+    Rgb::from(sp.throughput) * Rgb::from(vpl.power) * f * tr * falloff(d2, clamp)
 }
 
 /// A shadow ray's end at a VPL seen along `w` from `dist` away: just off the VPL's surface on
@@ -65,7 +74,7 @@ fn shadow_to_vpl(ts: &TraceScene, vpl: &SurfaceVertex, w: Vec3, dist: f32) -> Li
 /// Radiance a VPL scatters into the pixel of a camera media segment (`Lms`, surface → media),
 /// per light path traced. The point on the segment is sampled equiangularly towards the VPL
 /// (density ∝ 1/distance², which cancels the VPL's own falloff).
-pub fn vpl_to_media(ts: &TraceScene, seg: &MediaSegment, vpl: &SurfaceVertex, s: &mut Sampler) -> Rgb {
+pub fn vpl_to_media(ts: &TraceScene, seg: &MediaSegment, vpl: &SurfaceVertex, clamp: f32, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let m = &scene.media[seg.medium as usize];
     let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
@@ -96,5 +105,5 @@ pub fn vpl_to_media(ts: &TraceScene, seg: &MediaSegment, vpl: &SurfaceVertex, s:
     let t_cam = media::transmittance(m, o, d, t, s);
     let shadow = shadow_to_vpl(ts, vpl, w, dist);
     let tr = ts.shadow_transmittance(x, &shadow, Some(seg.medium), s);
-    Rgb::from(seg.throughput) * sigma_s * t_cam * Rgb::from(vpl.power) * f * tr / (d2 * pdf)
+    Rgb::from(seg.throughput) * sigma_s * t_cam * Rgb::from(vpl.power) * f * tr * falloff(d2, clamp) / pdf
 }

@@ -5,13 +5,15 @@
 //! * `Lmm`: two stages — the point on the VRL ∝ 1/(distance to the infinite camera line)², then
 //!   the point on the camera segment equiangularly towards it.
 //!
-//! Each function returns the radiance per light path traced (divide a set's sum by its paths).
+//! Each function returns the radiance per light path traced (divide a set's sum by its paths);
+//! `clamp` is the minimum distance of [`falloff`] (0: unclamped).
 use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
     light_paths::LightSegment,
     lights::LightSample,
     media,
+    vpl::falloff,
 };
 use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling};
 use glam::{Vec2, Vec3};
@@ -32,7 +34,7 @@ fn medium_target(from: Vec3, to: Vec3) -> Option<LightSample> {
 }
 
 /// Light a VRL scatters towards a camera shading point (`Lsm`).
-pub fn vrl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vrl: &LightSegment, s: &mut Sampler) -> Rgb {
+pub fn vrl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vrl: &LightSegment, clamp: f32, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let m = &scene.media[vrl.medium as usize];
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
@@ -62,11 +64,11 @@ pub fn vrl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vrl: &LightSegment, s:
     let origin = ts.spawn_from_triangle(sp.tri, p, w);
     let tr = ts.shadow_transmittance(origin, &shadow, sp.medium(), s);
     let d2 = shadow.dist * shadow.dist;
-    Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * f * tr / (d2 * pdf)
+    Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * f * tr * falloff(d2, clamp) / pdf
 }
 
 /// Light a VRL scatters into a camera media segment (`Lmm`).
-pub fn vrl_to_media(ts: &TraceScene, seg: &MediaSegment, vrl: &LightSegment, s: &mut Sampler) -> Rgb {
+pub fn vrl_to_media(ts: &TraceScene, seg: &MediaSegment, vrl: &LightSegment, clamp: f32, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let (mv, mc) = (&scene.media[vrl.medium as usize], &scene.media[seg.medium as usize]);
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
@@ -106,6 +108,14 @@ pub fn vrl_to_media(ts: &TraceScene, seg: &MediaSegment, vrl: &LightSegment, s: 
     let t_cam = media::transmittance(mc, oc, dc, t, s);
     let tr = ts.shadow_transmittance(x, &shadow, Some(seg.medium), s);
     let d2 = shadow.dist * shadow.dist;
-    Rgb::from(seg.throughput) * Rgb::from(vrl.power) * sigma_y * t_vrl * sigma_x * t_cam * tr * (phase_x * phase_y)
-        / (d2 * pdf_u * pdf_t)
+    Rgb::from(seg.throughput)
+        * Rgb::from(vrl.power)
+        * sigma_y
+        * t_vrl
+        * sigma_x
+        * t_cam
+        * tr
+        * (phase_x * phase_y)
+        * falloff(d2, clamp)
+        / (pdf_u * pdf_t)
 }
