@@ -333,6 +333,30 @@ fn vrl_renders_the_fog_box_with_its_components_and_refuses_caustic_scenes() {
     assert_eq!(layers.len(), 8, "beauty + 7 components");
     assert!(layers.iter().all(|(_, l)| l.pixels.iter().all(|p| p.is_finite())));
     assert!(layers[0].1.mean().max_element() > 0.0);
+    // The clamped variant renders too, and refuses a negative clamp distance.
+    let clamped = |extra: &str| {
+        beamlight(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "vrl-clamped",
+            "--passes",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--light-paths",
+            "4",
+            extra,
+        ])
+    };
+    assert!(clamped("--clamp-distance=0.2").status.success());
+    let o = clamped("--clamp-distance=-1");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--clamp-distance"), "{}", stderr(&o));
     // A glass sphere needs caustics, which the many-light methods cannot do yet: a clear error.
     let gltf = dir.path().join("glass.gltf");
     let mut b = beamlight_scene::gltf_writer::GltfBuilder::new();

@@ -136,11 +136,13 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         MethodArg::VrlClamped => Method::VrlClamped,
         MethodArg::Vbl => Method::Vbl,
     };
-    if matches!(method, Method::VrlClamped | Method::Vbl) {
-        bail!(
-            "--method {} is not implemented yet; use --method pt (the reference) or vrl",
-            method.name()
-        );
+    if method == Method::Vbl {
+        bail!("--method vbl is not implemented yet; use --method pt (the reference), vrl or vrl-clamped");
+    }
+    if let Some(c) = args.clamp_distance {
+        if !(c.is_finite() && c >= 0.0) {
+            bail!("--clamp-distance must be a finite distance >= 0, got {c}");
+        }
     }
     let backend = match args.backend {
         BackendArg::Gpu => {
