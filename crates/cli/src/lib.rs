@@ -139,10 +139,10 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     if method == Method::Vbl {
         bail!("--method vbl is not implemented yet; use --method pt (the reference), vrl or vrl-clamped");
     }
-    if let Some(c) = args.clamp_distance {
-        if !(c.is_finite() && c >= 0.0) {
-            bail!("--clamp-distance must be a finite distance >= 0, got {c}");
-        }
+    if let Some(c) = args.clamp_distance
+        && !(c.is_finite() && c >= 0.0)
+    {
+        bail!("--clamp-distance must be a finite distance >= 0, got {c}");
     }
     let backend = match args.backend {
         BackendArg::Gpu => {
