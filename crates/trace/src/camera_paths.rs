@@ -138,10 +138,11 @@ fn trace_one(
     let mut bounces = 0u32;
     let mut crossings = 0u32;
     loop {
-        let hit = ts.intersect(o, d, f32::INFINITY);
+        // Surface data is built only if the ray gets there (not when it scatters in a medium).
+        let hit = ts.bvh.closest_hit(o, d, f32::INFINITY);
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
-            let length = media::extent(m, o, hit.map_or(f32::INFINITY, |(h, _)| h.t));
+            let length = media::extent(m, o, hit.map_or(f32::INFINITY, |h| h.t));
             if length.is_finite() && length > 0.0 {
                 set.media_segments.push(MediaSegment {
                     origin: o.into(),
@@ -157,16 +158,14 @@ fn trace_one(
                 return;
             }
         }
-        let Some((_, sh)) = hit else { return };
-        let tri = &scene.triangles[sh.tri as usize];
+        let Some(h) = hit else { return };
+        let sh = ts.surface(&h);
         let mat = ts.material(&sh);
         if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) {
             set.emitted[pixel as usize] += throughput * mat.emission;
         }
         let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
-            if let Some(iface) = tri.interface {
-                medium = iface.entered(sh.ng, d);
-            }
+            medium = ts.medium_beyond(&sh, d, medium);
             crossings += 1;
             if crossings > MAX_CROSSINGS {
                 return;
@@ -210,9 +209,7 @@ fn trace_one(
             }
             throughput /= q;
         }
-        if let Some(iface) = tri.interface {
-            medium = iface.entered(sh.ng, wi);
-        }
+        medium = ts.medium_beyond(&sh, wi, medium);
         o = sh.spawn(wi);
         d = wi;
     }

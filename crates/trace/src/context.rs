@@ -86,6 +86,15 @@ impl TraceScene {
         }
     }
 
+    /// The medium a ray is in after leaving surface hit `sh` in direction `dir`: the side of a
+    /// medium boundary it leaves on, or `current` for surfaces that bound no medium.
+    pub fn medium_beyond(&self, sh: &SurfaceHit, dir: Vec3, current: MediumId) -> MediumId {
+        match self.scene.triangles[sh.tri as usize].interface {
+            Some(iface) => iface.entered(sh.ng, dir),
+            None => current,
+        }
+    }
+
     /// Origin for a ray leaving the point `p` of triangle `tri` towards `w`, for points known
     /// only by position (recorded gather points and light vertices): the offset uses an error
     /// bound valid anywhere on the triangle.
@@ -160,9 +169,7 @@ impl TraceScene {
                     if tr == Rgb::ZERO {
                         return tr;
                     }
-                    if let Some(iface) = tri.interface {
-                        medium = iface.entered(sh.ng, d);
-                    }
+                    medium = self.medium_beyond(&sh, d, medium);
                     let next = sh.spawn(d);
                     remaining -= (next - o).dot(d);
                     o = next;

@@ -53,9 +53,7 @@ pub fn direct_at_surface(ts: &TraceScene, sp: &ShadingPoint, s: &mut Sampler) ->
                 tr *= ts.medium_transmittance(medium, o, wi, h.t, s);
                 let m = ts.material(&hit);
                 if m.bsdf.is_none() {
-                    if let Some(iface) = scene.triangles[hit.tri as usize].interface {
-                        medium = iface.entered(hit.ng, wi);
-                    }
+                    medium = ts.medium_beyond(&hit, wi, medium);
                     o = hit.spawn(wi);
                     continue;
                 }

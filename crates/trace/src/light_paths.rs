@@ -150,8 +150,9 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
     let mut depth = 0u32;
     let mut crossings = 0u32;
     loop {
-        let hit = ts.intersect(o, d, f32::INFINITY);
-        let tmax = hit.map_or(f32::INFINITY, |(h, _)| h.t);
+        // Surface data is built only if the ray gets there (not when it scatters in a medium).
+        let hit = ts.bvh.closest_hit(o, d, f32::INFINITY);
+        let tmax = hit.map_or(f32::INFINITY, |h| h.t);
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
             let event = media::sample_distance(m, o, d, tmax, power, s);
@@ -195,12 +196,10 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
                 }
             }
         }
-        let Some((_, sh)) = hit else { return };
-        let tri = &scene.triangles[sh.tri as usize];
+        let Some(h) = hit else { return };
+        let sh = ts.surface(&h);
         let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
-            if let Some(iface) = tri.interface {
-                medium = iface.entered(sh.ng, d);
-            }
+            medium = ts.medium_beyond(&sh, d, medium);
             crossings += 1;
             if crossings > MAX_CROSSINGS {
                 return;
@@ -248,9 +247,7 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
         }
         power *= bs.weight * correction;
         flags = if bs.is_delta { AFTER_SPECULAR } else { 0 };
-        if let Some(iface) = tri.interface {
-            medium = iface.entered(sh.ng, wi);
-        }
+        medium = ts.medium_beyond(&sh, wi, medium);
         o = sh.spawn(wi);
         d = wi;
         if !roulette(&mut power, e.power, depth, settings.rr_depth, s) {

@@ -153,8 +153,9 @@ pub fn radiance_split(
     let mut crossings = 0u32;
 
     loop {
-        let hit = ts.intersect(o, d, f32::INFINITY);
-        let tmax = hit.map_or(f32::INFINITY, |(h, _)| h.t);
+        // Surface data is built only if the ray gets there (not when it scatters in a medium).
+        let hit = ts.bvh.closest_hit(o, d, f32::INFINITY);
+        let tmax = hit.map_or(f32::INFINITY, |h| h.t);
 
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
@@ -202,8 +203,8 @@ pub fn radiance_split(
             }
         }
 
-        let Some((h, sh)) = hit else { break };
-        let tri = &scene.triangles[h.tri as usize];
+        let Some(h) = hit else { break };
+        let sh = ts.surface(&h);
         let mat = ts.material(&sh);
 
         if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) {
@@ -217,9 +218,7 @@ pub fn radiance_split(
 
         let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
             // Invisible medium boundary: switch media and carry on in the same direction.
-            if let Some(iface) = tri.interface {
-                medium = iface.entered(sh.ng, d);
-            }
+            medium = ts.medium_beyond(&sh, d, medium);
             crossings += 1;
             if crossings > MAX_CROSSINGS {
                 break;
@@ -275,9 +274,7 @@ pub fn radiance_split(
         if bs.is_delta {
             class.specular_bounce();
         }
-        if let Some(iface) = tri.interface {
-            medium = iface.entered(sh.ng, wi);
-        }
+        medium = ts.medium_beyond(&sh, wi, medium);
         o = sh.spawn(wi);
         d = wi;
         if !russian_roulette(&mut beta, depth, settings.rr_depth, s) {
