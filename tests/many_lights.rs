@@ -104,6 +104,7 @@ fn components_match(lumpy: bool) {
         many_lights: ManyLightSettings {
             light_paths_per_pass: 200,
             clamp: 0.0,
+            ..Default::default()
         },
     };
     let result = render(&ts, &opts, |_, _| {}).unwrap();
@@ -165,6 +166,7 @@ fn clamping_loses_energy_on_a_glossy_scene() {
             many_lights: ManyLightSettings {
                 light_paths_per_pass: 100,
                 clamp: 0.0,
+                ..Default::default()
             },
         };
         let r = render(&ts, &opts, |_, _| {}).unwrap();

@@ -101,6 +101,13 @@ struct RenderArgs {
     /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
     #[arg(long)]
     clamp_distance: Option<f32>,
+    /// Initial radius R0 of the progressive estimators (photon mapping and photon beams for the
+    /// caustics), in scene units (default: 2.5 % of the scene's diagonal).
+    #[arg(long)]
+    radius: Option<f32>,
+    /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
+    #[arg(long, default_value_t = 0.7)]
+    alpha: f32,
 }
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
@@ -143,6 +150,14 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         && !(c.is_finite() && c >= 0.0)
     {
         bail!("--clamp-distance must be a finite distance >= 0, got {c}");
+    }
+    if let Some(r) = args.radius
+        && !(r.is_finite() && r > 0.0)
+    {
+        bail!("--radius must be a finite distance > 0, got {r}");
+    }
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        bail!("--alpha must lie strictly between 0 and 1, got {}", args.alpha);
     }
     let backend = match args.backend {
         BackendArg::Gpu => {
@@ -206,6 +221,8 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         many_lights: ManyLightSettings {
             light_paths_per_pass: args.light_paths,
             clamp: args.clamp_distance.unwrap_or(0.0),
+            radius: args.radius.unwrap_or(0.0),
+            alpha: args.alpha,
         },
     };
     let bar = progress_bar(&budget);

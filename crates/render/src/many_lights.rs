@@ -2,13 +2,15 @@
 //! a fresh set of light paths, then every gather point against every virtual light, each
 //! transport component kept apart (`Component::ALL` order).
 //!
-//! Caustics (progressive photon mapping and photon beams) are not implemented yet, so scenes
-//! with mirrors or glass are refused before rendering (see [`check_supported`]).
-use crate::components::SceneFeatures;
+//! Caustics come from the same light paths: progressive photon mapping over the caustic
+//! photons and progressive photon beams over the beams that leave specular bounces, with the
+//! pass's radius from the schedule of eq. 11 ([`crate::radius`]).
+use crate::radius::squared_radius;
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
+    caustics::{BeamMap, PhotonMap},
     components::Component,
     direct,
     light_paths::{LightTracerSettings, trace_light_paths},
@@ -23,6 +25,11 @@ pub struct ManyLightSettings {
     pub light_paths_per_pass: u32,
     /// Minimum distance in the inverse-square falloff (`vrl-clamped`); 0 for unclamped `vrl`.
     pub clamp: f32,
+    /// Initial radius R0 of the progressive estimators (photon mapping, photon beams) in
+    /// scene units; 0 picks [`default_radius`].
+    pub radius: f32,
+    /// The radius reduction's α of eq. 11, in (0, 1): smaller shrinks faster.
+    pub alpha: f32,
 }
 
 impl Default for ManyLightSettings {
@@ -30,6 +37,8 @@ impl Default for ManyLightSettings {
         Self {
             light_paths_per_pass: 64,
             clamp: 0.0,
+            radius: 0.0,
+            alpha: 0.7,
         }
     }
 }
@@ -42,16 +51,27 @@ pub fn default_clamp(scene: &beamlight_scene::Scene) -> f32 {
     if diagonal.is_finite() { 0.05 * diagonal } else { 0.0 }
 }
 
-/// Refuses scenes whose light needs components this version cannot compute.
-pub fn check_supported(features: &SceneFeatures) -> Result<(), String> {
-    if features.specular_surfaces {
-        return Err(
-            "this scene has mirror or glass surfaces, whose caustics need photon mapping and photon beams, \
-                    which the many-light methods do not have yet; render it with --method pt"
-                .into(),
-        );
+/// The default initial radius R0: 2.5 % of the diagonal of the scene's bounds. Eq. 11 makes
+/// R0 the radius of a pass with a single light path; with M paths per pass the first pass
+/// already uses about R0 · M^((α−1)/2) (0.56 R0 for M = 64, α = 0.7).
+pub fn default_radius(scene: &beamlight_scene::Scene) -> f32 {
+    let (lo, hi) = scene.bounds();
+    let diagonal = (hi - lo).length();
+    if diagonal.is_finite() && diagonal > 0.0 {
+        0.025 * diagonal
+    } else {
+        1.0
     }
-    Ok(())
+}
+
+/// The squared radius of pass `pass` (0-based) for these settings, from eq. 11 in log space.
+pub fn pass_squared_radius(settings: &ManyLightSettings, pass: u32) -> f32 {
+    squared_radius(
+        settings.radius as f64,
+        settings.alpha as f64,
+        settings.light_paths_per_pass.max(1) as u64,
+        pass as u64 + 1,
+    ) as f32
 }
 
 const N: usize = Component::ALL.len();
@@ -75,6 +95,9 @@ pub fn many_light_pass(
         pass,
     );
     let m = lights.paths.max(1) as f32;
+    let r2 = pass_squared_radius(settings, pass);
+    let photons = PhotonMap::build(&lights.caustic_photons, r2);
+    let beams = BeamMap::build(&lights.photon_beams, r2);
     for buffer in out.iter_mut() {
         buffer.iter_mut().for_each(|v| *v = Rgb::ZERO);
     }
@@ -102,6 +125,7 @@ pub fn many_light_pass(
                 .map(|v| vrl::vrl_to_surface(ts, sp, v, settings.clamp, &mut s))
                 .sum::<Rgb>()
                 / m;
+            c[Component::CausticSurface as usize] = photons.radiance(ts, sp) / m;
             (sp.pixel, c)
         })
         .collect();
@@ -125,6 +149,7 @@ pub fn many_light_pass(
                 .map(|v| vrl::vrl_to_media(ts, seg, v, settings.clamp, &mut s))
                 .sum::<Rgb>()
                 / m;
+            c[Component::CausticVolume as usize] = beams.radiance(ts, seg, &mut s) / m;
             (seg.pixel, c)
         })
         .collect();

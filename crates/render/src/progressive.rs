@@ -2,7 +2,6 @@
 //! `(scene, settings, seed, pass index)`, averaged into a [`Film`] until the budget runs out.
 use crate::{
     Film,
-    components::SceneFeatures,
     many_lights::{self, ManyLightSettings},
 };
 use beamlight_scene::{Rgb, rng::Sampler};
@@ -81,7 +80,7 @@ pub fn render(
 ) -> Result<RenderResult, String> {
     match opts.method {
         Method::Pt => {}
-        Method::Vrl | Method::VrlClamped => many_lights::check_supported(&SceneFeatures::of(&ts.scene))?,
+        Method::Vrl | Method::VrlClamped => {}
         Method::Vbl => {
             return Err(format!(
                 "method '{}' is not available yet: use 'pt' (the reference), 'vrl' or 'vrl-clamped'",
@@ -95,6 +94,11 @@ pub fn render(
             Method::VrlClamped if opts.many_lights.clamp > 0.0 => opts.many_lights.clamp,
             Method::VrlClamped => many_lights::default_clamp(&ts.scene),
             _ => 0.0,
+        },
+        radius: if opts.many_lights.radius > 0.0 {
+            opts.many_lights.radius
+        } else {
+            many_lights::default_radius(&ts.scene)
         },
         ..opts.many_lights
     };

@@ -2,6 +2,7 @@
 //! distance sampling in media, light sampling, and the reference volumetric path tracer.
 pub mod bvh;
 pub mod camera_paths;
+pub mod caustics;
 pub mod components;
 pub mod context;
 pub mod direct;
@@ -10,6 +11,7 @@ pub mod light_paths;
 pub mod lights;
 pub mod media;
 pub mod pt;
+pub mod spatial;
 pub mod vpl;
 pub mod vrl;
 

@@ -1,0 +1,235 @@
+//! Caustics in the many-light methods: progressive photon mapping (`caustic_surface`) and
+//! progressive photon beams (`caustic_volume`) against the path tracer's paths of the same
+//! class, in a fog box with a mirror on the floor and a glass block in the light; and the sum
+//! of all seven components against the path tracer's image.
+mod common;
+use beamlight_render::{
+    Budget, Method, RenderOptions,
+    many_lights::{ManyLightSettings, pass_squared_radius},
+    render,
+};
+use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, rng::Sampler};
+use beamlight_trace::{
+    TraceScene,
+    camera_paths::{CameraPathSettings, trace_camera_paths},
+    caustics::{BeamMap, PhotonMap},
+    components::Component,
+    light_paths::{LightTracerSettings, trace_light_paths},
+    pt::{self, PathTracerSettings},
+};
+use common::*;
+use glam::{DVec3, Vec2, Vec3};
+use std::time::Instant;
+
+/// Adds the six faces of the box [lo, hi], front faces pointing outwards.
+fn add_box_outward(scene: &mut Scene, lo: Vec3, hi: Vec3, material: u32) {
+    let e = hi - lo;
+    let (x, y, z) = (Vec3::X * e.x, Vec3::Y * e.y, Vec3::Z * e.z);
+    add_quad(scene, lo, y, x, material);
+    add_quad(scene, lo + z, x, y, material);
+    add_quad(scene, lo, x, z, material);
+    add_quad(scene, lo + y, z, x, material);
+    add_quad(scene, lo, z, y, material);
+    add_quad(scene, lo + x, y, z, material);
+}
+
+/// A fog box lit from the ceiling; a mirror on the floor sends a caustic onto the ceiling and
+/// a beam of light up through the fog, and a glass block hangs under the light.
+fn caustic_box(w: u32, h: u32, sigma_s: f32) -> Scene {
+    let mut s = empty_scene(Vec3::new(0.0, -0.2, 0.95), Vec3::new(0.1, 0.2, -1.0), 80.0, w, h);
+    let wall = add_material(&mut s, lambert("wall", 0.6));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    let light = add_material(&mut s, emitter("light", 10.0));
+    add_quad(
+        &mut s,
+        Vec3::new(-0.3, 0.99, -0.3),
+        Vec3::new(0.6, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.6),
+        light,
+    );
+    let mirror = add_material(
+        &mut s,
+        material(
+            "mirror",
+            Some(Bsdf::Mirror {
+                reflectance: Rgb::new(0.9, 0.8, 0.7),
+            }),
+            Rgb::ZERO,
+            false,
+        ),
+    );
+    add_quad(
+        &mut s,
+        Vec3::new(-0.6, -0.98, -0.6),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        mirror,
+    );
+    let glass = add_material(
+        &mut s,
+        material(
+            "glass",
+            Some(Bsdf::Glass {
+                ior: 1.5,
+                tint: Rgb::ONE,
+            }),
+            Rgb::ZERO,
+            false,
+        ),
+    );
+    add_box_outward(&mut s, Vec3::new(0.3, 0.2, -0.5), Vec3::new(0.7, 0.5, -0.1), glass);
+    s.media.push(homogeneous(Rgb::splat(sigma_s), Rgb::splat(0.05), 0.3));
+    s.global_medium = Some(0);
+    s
+}
+
+/// Image means of the path tracer's components over `spp` samples per pixel.
+fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    let mut sum = [DVec3::ZERO; 7];
+    for pass in 0..spp {
+        for y in 0..h {
+            for x in 0..w {
+                let mut s = Sampler::new(seed, pass, y * w + x);
+                let j = s.next_2d();
+                let film = Vec2::new((x as f32 + j.x) / w as f32, (y as f32 + j.y) / h as f32);
+                let d = ts.scene.camera.direction(film, w as f32 / h as f32);
+                pt::radiance_split(
+                    ts,
+                    &PathTracerSettings::default(),
+                    ts.scene.camera.position(),
+                    d,
+                    ts.camera_medium,
+                    &mut s,
+                    &mut |c, l| sum[c as usize] += l.as_dvec3(),
+                );
+            }
+        }
+    }
+    sum.map(|v| v / (spp as f64 * (w * h) as f64))
+}
+
+/// Image means of the two caustic components alone, from passes `passes` of camera rays and
+/// light paths gathered by the photon map and the beam map with the pass's radius.
+fn caustics_only(ts: &TraceScene, passes: std::ops::Range<u32>, settings: &ManyLightSettings) -> [DVec3; 2] {
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    let paths = settings.light_paths_per_pass;
+    let mut sum = [DVec3::ZERO; 2];
+    let n = passes.len();
+    for pass in passes {
+        let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, 1, pass);
+        let lights = trace_light_paths(ts, &LightTracerSettings::default(), paths, 1, pass);
+        let r2 = pass_squared_radius(settings, pass);
+        let photons = PhotonMap::build(&lights.caustic_photons, r2);
+        let beams = BeamMap::build(&lights.photon_beams, r2);
+        for sp in &gather.shading_points {
+            sum[0] += photons.radiance(ts, sp).as_dvec3() / paths as f64;
+        }
+        for (i, seg) in gather.media_segments.iter().enumerate() {
+            let mut s = Sampler::new(2, pass, i as u32);
+            sum[1] += beams.radiance(ts, seg, &mut s).as_dvec3() / paths as f64;
+        }
+    }
+    sum.map(|v| v / (n as f64 * (w * h) as f64))
+}
+
+/// Mean and standard error of the mean over independent batch estimates (per channel).
+fn batch_stats(batches: &[DVec3]) -> (DVec3, DVec3) {
+    let n = batches.len() as f64;
+    let mean = batches.iter().sum::<DVec3>() / n;
+    let var = batches.iter().map(|b| (*b - mean) * (*b - mean)).sum::<DVec3>() / (n - 1.0);
+    (mean, (var / n).max(DVec3::splat(0.0)).sqrt())
+}
+
+/// PPM and PPB against the path tracer's caustic paths. Both sides are noisy (caustics are
+/// the path tracer's hard case, and the photon estimates are heavy-tailed at this photon
+/// count), so each side runs in independent batches and the difference must lie within four
+/// standard errors of the combined estimate, plus 3 % for the blur that remains at the
+/// final radius.
+#[test]
+fn photon_mapping_and_photon_beams_match_the_path_tracers_caustics() {
+    let ts = TraceScene::new(caustic_box(12, 12, 0.3));
+    let settings = ManyLightSettings {
+        light_paths_per_pass: 1024,
+        radius: 0.1,
+        ..Default::default()
+    };
+    let (batches, passes, spp) = (8u32, 96u32, 1536u32);
+    let mut ours = [Vec::new(), Vec::new()];
+    let mut theirs = [Vec::new(), Vec::new()];
+    for b in 0..batches {
+        // Later batches continue the radius schedule: pass indices run on.
+        let c = caustics_only(&ts, b * passes..(b + 1) * passes, &settings);
+        let p = pt_components(&ts, spp, 100 + b);
+        for k in 0..2 {
+            ours[k].push(c[k]);
+            theirs[k].push(p[5 + k]);
+        }
+    }
+    for (k, c) in [Component::CausticSurface, Component::CausticVolume]
+        .into_iter()
+        .enumerate()
+    {
+        let ((a, ea), (b, eb)) = (batch_stats(&ours[k]), batch_stats(&theirs[k]));
+        let sigma = (ea * ea + eb * eb).sqrt();
+        let z = ((a - b).abs() / sigma).max_element();
+        eprintln!(
+            "{:>15}: photons {a:.5} ± {ea:.5}, path tracer {b:.5} ± {eb:.5}, z = {z:.2}",
+            c.name()
+        );
+        assert!(b.min_element() > 0.0, "{}: the scene must have some", c.name());
+        let allowed = sigma * 4.0 + b * 0.03;
+        assert!(
+            (a - b).abs().cmple(allowed).all(),
+            "{}: photons {a} ± {ea} vs path tracer {b} ± {eb}",
+            c.name()
+        );
+    }
+}
+
+/// The orchestrator's `vrl` on a scene with every kind of transport: all seven components
+/// together must add up to the path tracer's image, and the VRL/VPL ones still match.
+#[test]
+fn all_components_add_up_to_the_path_tracers_image() {
+    let (w, h) = (8u32, 8u32);
+    let ts = TraceScene::new(caustic_box(w, h, 0.3));
+    let reference = pt_components(&ts, 8192, 5);
+    let opts = RenderOptions {
+        method: Method::Vrl,
+        width: w,
+        height: h,
+        budget: Budget::Passes(128),
+        seed: 3,
+        first_pass: 0,
+        path_tracer: PathTracerSettings::default(),
+        start: Instant::now(),
+        components: true,
+        many_lights: ManyLightSettings {
+            light_paths_per_pass: 128,
+            ..Default::default()
+        },
+    };
+    let result = render(&ts, &opts, |_, _| {}).unwrap();
+    assert_eq!(result.film.rejected, 0);
+    let ours: Vec<DVec3> = result.components.iter().map(|f| f.image().mean().as_dvec3()).collect();
+    for c in Component::ALL {
+        let (a, b) = (ours[c as usize], reference[c as usize]);
+        let rel = ((a - b) / b).abs().max_element();
+        eprintln!(
+            "{:>15}: many-light {a:.5}, path tracer {b:.5}, relative difference {rel:.4}",
+            c.name()
+        );
+        assert!(b.min_element() > 0.0, "{}: the scene must have some", c.name());
+        // The caustics are tested with proper statistics above; at this photon count they
+        // are only roughly right (a surface caustic is 2 % of the image).
+        let tolerance = match c {
+            Component::CausticSurface | Component::CausticVolume => 0.5,
+            _ => 0.05,
+        };
+        assert!(rel < tolerance, "{}: many-light {a} vs path tracer {b}", c.name());
+    }
+    let (a, b) = (result.film.image().mean().as_dvec3(), reference.iter().sum::<DVec3>());
+    let rel = ((a - b) / b).abs().max_element();
+    eprintln!("beauty: many-light {a:.5}, path tracer {b:.5}, relative difference {rel:.4}");
+    assert!(rel < 0.03, "beauty: many-light {a} vs path tracer {b}");
+}
