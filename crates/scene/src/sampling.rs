@@ -229,6 +229,231 @@ fn equiangular_density(t: f32, delta: f32, h: f32, theta0: f32, theta1: f32) -> 
     if pdf.is_finite() { pdf } else { 0.0 }
 }
 
+/// Uniform direction inside the cone around +z given by `one_minus_cos_max` = 1 − cos θmax
+/// ∈ [0, 2] (local frame); the same warp as [`uniform_cone`], but the opening is passed as
+/// 1 − cos θmax so that tiny cones (a far or tiny sphere: 1 − cos θmax ≈ R²/2d²) keep their
+/// size instead of rounding to a single direction. The solid angle is 2π·`one_minus_cos_max`.
+pub fn uniform_cone_1mc(u: Vec2, one_minus_cos_max: f32) -> Vec3 {
+    let one_minus_cos = u.x * one_minus_cos_max.clamp(0.0, 2.0);
+    let cos_theta = 1.0 - one_minus_cos;
+    let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+    let phi = TAU * u.y;
+    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+}
+
+/// Point `k` of `n` of a randomly shifted rank-1 lattice in [0, 1)²: (k + ½)/n along x and
+/// the golden-ratio sequence along y, both shifted (mod 1) by `shift`. Every point is uniform
+/// on its own (so averages over the set are unbiased) while the set covers the square evenly
+/// for any `n`; two random numbers drive the whole set.
+#[inline]
+pub fn shifted_lattice(k: u32, n: u32, shift: Vec2) -> Vec2 {
+    const GOLDEN: f32 = 0.618_034;
+    let n = n.max(1);
+    let x = (k as f32 + 0.5) / n as f32 + shift.x;
+    // (k·g) mod 1 in f32 loses digits for large k; the sets here are small (≤ a few hundred).
+    let y = (k as f32 * GOLDEN).fract() + shift.y;
+    let wrap = |v: f32| {
+        let f = v - v.floor();
+        f.min(ONE_MINUS_EPSILON)
+    };
+    Vec2::new(wrap(x), wrap(y))
+}
+
+/// Most vertices a [`PiecewiseLinear`] keeps (it lives on the stack, as it will in a GPU
+/// kernel's registers).
+pub const PIECEWISE_LINEAR_MAX_VERTICES: usize = 64;
+
+/// A piecewise-linear density over `[x0, x1]`: `n` equally spaced vertices with non-negative
+/// values, linearly interpolated, normalised. This is the building block of the VRL paper's and
+/// the VBL paper's angular PDFs (x is then an angle).
+///
+/// Robustness: values that are negative, NaN or infinite count as 0; when no value is positive
+/// (or fewer than two are given) the density is uniform; `uniform_share` ∈ [0, 1] mixes in that
+/// much of the uniform density (a defensive floor: a mixture of a piecewise-linear and a uniform
+/// density is again piecewise linear, so this only raises every vertex by a constant). A
+/// degenerate interval (x1 ≤ x0, or either end not finite) has nothing to sample:
+/// [`sample`](Self::sample) returns `(x0, 0.0)` and [`pdf`](Self::pdf) is 0 everywhere.
+#[derive(Clone, Copy, Debug)]
+pub struct PiecewiseLinear {
+    x0: f32,
+    x1: f32,
+    n: usize,
+    /// Vertex values, scaled so that they integrate to `total` in index units (width 1 per
+    /// segment).
+    values: [f32; PIECEWISE_LINEAR_MAX_VERTICES],
+    /// `cdf[i]`: area (index units) of the segments left of vertex i.
+    cdf: [f32; PIECEWISE_LINEAR_MAX_VERTICES],
+    total: f32,
+}
+
+impl PiecewiseLinear {
+    /// Builds the density from the first [`PIECEWISE_LINEAR_MAX_VERTICES`] of `values`.
+    pub fn new(x0: f32, x1: f32, values: &[f32], uniform_share: f32) -> Self {
+        let mut pl = Self {
+            x0,
+            x1,
+            n: 0,
+            values: [0.0; PIECEWISE_LINEAR_MAX_VERTICES],
+            cdf: [0.0; PIECEWISE_LINEAR_MAX_VERTICES],
+            total: 0.0,
+        };
+        if !(x0.is_finite() && x1.is_finite() && x1 > x0) {
+            return pl;
+        }
+        let n = values.len().min(PIECEWISE_LINEAR_MAX_VERTICES);
+        let clean = |v: f32| if v.is_finite() && v > 0.0 { v } else { 0.0 };
+        // Area in index units, accumulated in f64 so huge and tiny values mix safely.
+        let mut area = 0.0f64;
+        for i in 1..n {
+            area += 0.5 * (clean(values[i - 1]) as f64 + clean(values[i]) as f64);
+        }
+        let share = if uniform_share.is_nan() {
+            0.0
+        } else {
+            uniform_share.clamp(0.0, 1.0)
+        };
+        if n < 2 || !(area > 0.0) || !area.is_finite() {
+            // Nothing to go by: uniform, two vertices of 1.
+            pl.n = 2;
+            pl.values[0] = 1.0;
+            pl.values[1] = 1.0;
+            pl.cdf[1] = 1.0;
+            pl.total = 1.0;
+            return pl;
+        }
+        // Normalise to unit area, then mix: (1 − share)·v/area + share/(n − 1) per vertex.
+        let segments = (n - 1) as f64;
+        let floor = share as f64 / segments;
+        let scale = (1.0 - share as f64) / area;
+        pl.n = n;
+        for i in 0..n {
+            pl.values[i] = (clean(values[i]) as f64 * scale + floor) as f32;
+        }
+        let mut c = 0.0f64;
+        for i in 1..n {
+            c += 0.5 * (pl.values[i - 1] as f64 + pl.values[i] as f64);
+            pl.cdf[i] = c as f32;
+        }
+        pl.total = c as f32;
+        pl
+    }
+
+    /// Whether there is anything to sample (a proper interval).
+    pub fn is_valid(&self) -> bool {
+        self.n >= 2 && self.total > 0.0
+    }
+
+    fn width(&self) -> f32 {
+        (self.x1 - self.x0) / (self.n - 1) as f32
+    }
+
+    /// Returns `(x, pdf)`. Never lands in a segment whose two vertices are both 0.
+    pub fn sample(&self, u: f32) -> (f32, f32) {
+        if !self.is_valid() {
+            return (self.x0, 0.0);
+        }
+        let u = if u >= 0.0 { u.min(ONE_MINUS_EPSILON) } else { 0.0 };
+        let a = u * self.total;
+        // Last segment whose start is ≤ a and which has area (a linear scan: n is small).
+        let mut i = 0;
+        for k in 1..self.n - 1 {
+            if self.cdf[k] <= a && self.cdf[k + 1] > self.cdf[k] {
+                i = k;
+            }
+        }
+        // Skip leading empty segments (a may be 0 while segment 0 has no area).
+        while i + 1 < self.n - 1 && !(self.cdf[i + 1] > self.cdf[i]) {
+            i += 1;
+        }
+        let (f0, f1) = (self.values[i], self.values[i + 1]);
+        let seg_area = self.cdf[i + 1] - self.cdf[i];
+        let area = (a - self.cdf[i]).clamp(0.0, seg_area);
+        // Solve f0 s + (f1 − f0) s²/2 = area for s ∈ [0, 1] in the form without cancellation
+        // (no division by f1 − f0, which may be 0).
+        let disc = (f0 * f0 + 2.0 * (f1 - f0) * area).max(0.0);
+        let denom = f0 + disc.sqrt();
+        let s = if denom > 0.0 {
+            (2.0 * area / denom).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let w = self.width();
+        let x = (self.x0 + (i as f32 + s) * w).clamp(self.x0, self.x1);
+        let value = f0 + (f1 - f0) * s;
+        let pdf = value / (self.total * w);
+        (x, if pdf.is_finite() { pdf.max(0.0) } else { 0.0 })
+    }
+
+    /// Density at `x` (0 outside `[x0, x1]`).
+    pub fn pdf(&self, x: f32) -> f32 {
+        if !(self.is_valid() && x >= self.x0 && x <= self.x1) {
+            return 0.0;
+        }
+        let w = self.width();
+        let idx = (x - self.x0) / w;
+        let i = (idx.floor().max(0.0) as usize).min(self.n - 2);
+        let s = (idx - i as f32).clamp(0.0, 1.0);
+        let value = self.values[i] + (self.values[i + 1] - self.values[i]) * s;
+        let pdf = value / (self.total * w);
+        if pdf.is_finite() { pdf.max(0.0) } else { 0.0 }
+    }
+
+    pub fn interval(&self) -> (f32, f32) {
+        (self.x0, self.x1)
+    }
+}
+
+/// The angular parametrisation of a segment `o + t·d`, `t ∈ [t0, t1]` (`d` unit), as seen from
+/// a point `c`: `t(θ) = delta + h·tan θ`, θ ∈ [θ0, θ1], where `delta` is the closest approach
+/// to `c` and `h` its distance (floored at `h_min`, and like [`equiangular`] at a tiny fraction
+/// of the scale, so a point on the line does not make the map singular). A density p(θ) in the
+/// angle is the density p(θ)·dθ/dt = p(θ)·h / (h² + (t − delta)²) in t: a uniform p(θ) is
+/// equiangular sampling, a piecewise-linear one the VRL/VBL papers' angular PDFs.
+///
+/// `h_min` > 0 makes the map the angle seen from a point `h_min` off the line: the VBL
+/// estimators pass the sphere radius R, since a sphere's contribution stops growing once the
+/// line comes closer than R (for R → 0 it is the true angle).
+#[derive(Clone, Copy, Debug)]
+pub struct LineAngles {
+    pub delta: f32,
+    pub h: f32,
+    pub theta0: f32,
+    pub theta1: f32,
+}
+
+impl LineAngles {
+    pub fn new(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, h_min: f32) -> Self {
+        let (delta, h, _, _) = equiangular_frame(o, d, t0, t1, c);
+        let h = if h_min > h { h_min } else { h };
+        Self {
+            delta,
+            h,
+            theta0: (t0 - delta).atan2(h),
+            theta1: (t1 - delta).atan2(h),
+        }
+    }
+
+    /// The line parameter at angle θ.
+    #[inline]
+    pub fn t(&self, theta: f32) -> f32 {
+        self.delta + self.h * theta.tan()
+    }
+
+    /// dθ/dt at parameter `t` (the Jacobian that turns an angular density into one in t).
+    #[inline]
+    pub fn dtheta_dt(&self, t: f32) -> f32 {
+        let x = t - self.delta;
+        let j = self.h / (self.h * self.h + x * x);
+        if j.is_finite() { j } else { 0.0 }
+    }
+
+    /// The angle of parameter `t`.
+    #[inline]
+    pub fn theta(&self, t: f32) -> f32 {
+        (t - self.delta).atan2(self.h)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

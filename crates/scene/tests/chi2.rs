@@ -18,7 +18,7 @@ use glam::{DVec3, Vec2, Vec3};
 const N: usize = 1_000_000;
 
 /// Number of statistical tests (chi-square and binomial) in this file; keep in sync.
-const NUM_TESTS: usize = 38;
+const NUM_TESTS: usize = 44;
 
 fn alpha() -> f64 {
     sidak(0.01, NUM_TESTS)
@@ -700,4 +700,144 @@ fn mirror_reflects_exactly() {
         let (a, b) = (wo.as_dvec3(), s.wi.as_dvec3());
         assert!((a.dot(n) - b.dot(n)).abs() < 1e-7 && a.cross(n).dot(b).abs() < 1e-7);
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Piecewise-linear densities (the VRL and VBL papers' angular PDFs)
+// ---------------------------------------------------------------------------------------------
+
+/// Samples `pl` N times into `bins` equal bins over its interval; expected counts from
+/// integrating `pl.pdf` per bin (adaptively, so the kinks at the vertices are resolved).
+fn chi2_piecewise_linear(name: &str, pl: &PiecewiseLinear, bins: usize, seed: u32) {
+    let (x0, x1) = pl.interval();
+    let (a, b) = (x0 as f64, x1 as f64);
+    let edge = |k: usize| a + (b - a) * k as f64 / bins as f64;
+    let mut pdf = |x: f64| pl.pdf(x as f32) as f64;
+    let tol = Tol {
+        abs: 1e-10,
+        rel: 1e-7,
+        depth: 20,
+    };
+    let cells: Vec<f64> = (0..bins)
+        .map(|k| adaptive(&mut pdf, edge(k), edge(k + 1), tol))
+        .collect();
+    let total: f64 = cells.iter().sum();
+    assert!((total - 1.0).abs() < 1e-4, "{name}: pdf integrates to {total}");
+    let mut observed = vec![0.0; bins];
+    for i in 0..N {
+        let (x, p) = pl.sample(Sampler::new(seed, 0, i as u32).next_1d());
+        assert!(x >= x0 && x <= x1, "{name}: x = {x} outside [{x0}, {x1}]");
+        assert!(
+            p > 0.0 && close(p, pl.pdf(x), 1e-3),
+            "{name}: pdf {p} vs pdf() {}",
+            pl.pdf(x)
+        );
+        let k = (((x as f64 - a) / (b - a) * bins as f64) as usize).min(bins - 1);
+        observed[k] += 1.0;
+    }
+    let expected: Vec<f64> = cells.iter().map(|c| c * N as f64).collect();
+    let r = chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("{name}: {e}"));
+    eprintln!("{name}: {r:?}");
+}
+
+#[test]
+fn chi2_piecewise_linear_densities() {
+    // Uneven values with runs of zeros (no sample may land between two zero vertices) and
+    // spikes; 11 segments of 5 bins each, so empty segments are whole bins.
+    let values = [0.0, 0.0, 3.0, 0.2, 0.0, 0.0, 0.0, 7.5, 1e-3, 1.0, 1.0, 0.0];
+    let pl = PiecewiseLinear::new(-1.2, 0.9, &values, 0.0);
+    chi2_piecewise_linear("piecewise linear, zeros and spikes", &pl, 55, 100);
+    // The same with a uniform share mixed in: now positive everywhere.
+    let pl = PiecewiseLinear::new(-1.2, 0.9, &values, 0.3);
+    chi2_piecewise_linear("piecewise linear, 30 % uniform", &pl, 55, 101);
+    // Smoothly varying values over many vertices, bins not aligned with them.
+    let values: Vec<f32> = (0..40).map(|i| 1.0 + (i as f32 * 0.4).sin() * 0.9).collect();
+    let pl = PiecewiseLinear::new(0.0, 3.0, &values, 0.0);
+    chi2_piecewise_linear("piecewise linear, 40 smooth vertices", &pl, 64, 102);
+    // Nothing positive: uniform.
+    let pl = PiecewiseLinear::new(-0.5, 0.5, &[0.0, f32::NAN, -1.0, 0.0], 0.0);
+    for x in [-0.5f32, 0.0, 0.3, 0.5] {
+        assert!(
+            (pl.pdf(x) - 1.0).abs() < 1e-6,
+            "all-zero values must give a uniform pdf"
+        );
+    }
+    chi2_piecewise_linear("piecewise linear, all zero", &pl, 20, 103);
+}
+
+#[test]
+fn piecewise_linear_degenerate_inputs() {
+    for (x0, x1) in [(1.0f32, 1.0f32), (1.0, 0.5), (0.0, f32::INFINITY), (f32::NAN, 1.0)] {
+        let pl = PiecewiseLinear::new(x0, x1, &[1.0, 2.0, 3.0], 0.1);
+        assert!(!pl.is_valid());
+        for u in [0.0, 0.5, 1.0] {
+            let (x, p) = pl.sample(u);
+            assert_eq!(p, 0.0, "[{x0}, {x1}]");
+            assert!(x == x0 || x.is_nan() == x0.is_nan());
+        }
+        assert_eq!(pl.pdf(x0), 0.0);
+    }
+    // One vertex, huge and tiny values, NaN u, the ends of [0, 1]: finite and inside.
+    for values in [&[5.0f32][..], &[1e30, 1e-30, 1e30][..], &[0.0, 0.0, 1e-38][..]] {
+        let pl = PiecewiseLinear::new(-1.0, 2.0, values, 0.0);
+        for u in [0.0, 1e-9, 0.5, ONE_MINUS_EPSILON, 1.0, f32::NAN, -3.0] {
+            let (x, p) = pl.sample(u);
+            assert!(
+                (-1.0..=2.0).contains(&x) && p.is_finite() && p >= 0.0,
+                "{values:?} u {u}: {x} {p}"
+            );
+        }
+    }
+}
+
+/// Points on a segment sampled by a piecewise-linear density in the angle they subtend at `c`
+/// (how the VBL estimators pick points): bins in t, expected counts from the density in t,
+/// pdf_θ(θ(t))·dθ/dt, integrated per bin.
+fn chi2_line_angles(name: &str, o: Vec3, d: Vec3, t1: f32, c: Vec3, h_min: f32, seed: u32) {
+    let line = LineAngles::new(o, d, 0.0, t1, c, h_min);
+    let values: Vec<f32> = (0..9)
+        .map(|i| [0.3, 2.0, 0.1, 0.0, 0.0, 1.0, 4.0, 0.5, 0.2][i])
+        .collect();
+    let pl = PiecewiseLinear::new(line.theta0, line.theta1, &values, 0.05);
+    let density = |t: f32| pl.pdf(line.theta(t)) * line.dtheta_dt(t);
+    let bins = 50;
+    let edge = |k: usize| t1 as f64 * k as f64 / bins as f64;
+    let mut pdf = |t: f64| density(t as f32) as f64;
+    let tol = Tol {
+        abs: 1e-10,
+        rel: 1e-7,
+        depth: 24,
+    };
+    let cells: Vec<f64> = (0..bins)
+        .map(|k| adaptive(&mut pdf, edge(k), edge(k + 1), tol))
+        .collect();
+    let total: f64 = cells.iter().sum();
+    assert!((total - 1.0).abs() < 1e-3, "{name}: density in t integrates to {total}");
+    let mut observed = vec![0.0; bins];
+    for i in 0..N {
+        let (theta, p) = pl.sample(Sampler::new(seed, 0, i as u32).next_1d());
+        let t = line.t(theta).clamp(0.0, t1);
+        let p_t = p * line.dtheta_dt(t);
+        assert!(
+            close(p_t, density(t), 2e-3),
+            "{name}: pdf {p_t} vs {} at t = {t}",
+            density(t)
+        );
+        let k = ((t as f64 / t1 as f64 * bins as f64) as usize).min(bins - 1);
+        observed[k] += 1.0;
+    }
+    let expected: Vec<f64> = cells.iter().map(|c| c * N as f64).collect();
+    let r = chi2_test(&observed, &expected, alpha()).unwrap_or_else(|e| panic!("{name}: {e}"));
+    eprintln!("{name}: {r:?}");
+}
+
+#[test]
+fn chi2_piecewise_linear_in_the_angle_along_a_segment() {
+    let (o, d) = (Vec3::new(0.1, 0.4, -0.3), dir(0.3, -0.2, 0.9));
+    // The closest approach inside the segment, seen from close by; the same point with its
+    // distance floored at a radius (the VBL case of a line passing through a sphere).
+    let c = o + d * 0.7 + Vec3::new(0.05, 0.0, 0.0);
+    chi2_line_angles("angular piecewise linear, close point", o, d, 2.0, c, 0.0, 104);
+    let c = o + d * 0.7;
+    chi2_line_angles("angular piecewise linear, on the line, h ≥ 0.2", o, d, 2.0, c, 0.2, 105);
 }

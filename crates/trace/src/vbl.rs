@@ -1,0 +1,643 @@
+//! Virtual beam lights and virtual spherical lights (Novák et al., "Progressive Virtual Beam
+//! Lights", EGSR 2012): every point of a VRL, and every VPL, is inflated into a sphere of radius
+//! R whose light is gathered with the beam radiance estimate. A gather ray from the receiver in
+//! direction ω' collects a sphere's photon when it passes within R of the centre (the sphere
+//! seen as a disc of radius R facing ω', kernel 1/(πR²)), so a VSL of flux Φ at distance d sends
+//!
+//!   L_vsl = Φ/(πR²) · V · ∫_Ω f_receiver(ω') · f_light(ω') dω'          (paper eq. 9)
+//!
+//! over the cone Ω of directions whose ray passes within R of the centre: half-angle
+//! asin(R/d) outside the sphere. Ω/(πR²) = 2 / (d² (1 + cos θmax)) → 1/d² for R → 0, so the
+//! estimators become the unclamped VRL/VPL ones (with R = 0 exactly, term for term).
+//!
+//! **Receiver inside the sphere (d ≤ R).** Every gather ray then passes within R of the centre;
+//! the beam radiance estimate counts the photon for the rays whose closest approach lies ahead
+//! (t > 0), i.e. the hemisphere facing the centre, and Ω/(πR²) = 2/R². This is the d → R limit
+//! of the cone (cos θmax → 0), so the contribution is continuous in d and bounded by
+//! 2Φ/R² · max(f f); nothing is singular. It stays consistent as R → 0: the points of a VRL
+//! within R of a receiver form a piece of length ≤ 2R, and a VRL only comes that close with a
+//! probability that shrinks like R², so this region's share of the expected value vanishes.
+//! (At d = 0 exactly, where the hemisphere has no direction, the receiver's normal, or for a
+//! medium point its viewing direction, picks it.)
+//!
+//! The four components:
+//! * [`vbl_to_surface`] `Lsm` (eqs. 8–9): v on the VRL by a piecewise-linear PDF in the angle
+//!   about the shading point, then the VSL at v integrated numerically;
+//! * [`vbl_to_media`] `Lmm` (eq. 10): the two-stage method — the VSL centre on the VRL ∝ 1/(its
+//!   distance to the infinite camera line)², then the camera point by a piecewise-linear PDF in
+//!   the angle about that centre;
+//! * [`vsl_to_media`] `Lms` (§3.3): the dual of `Lsm`, a VPL inflated into a VSL, the camera point
+//!   by a piecewise-linear PDF in the angle about the surface point;
+//! * [`vsl_to_surface`] `Lss` (§3.4): Hašan et al.'s virtual spherical lights.
+//!
+//! **The angular PDFs.** The vertices are equally spaced in the angle the sampled segment
+//! subtends at the fixed point (so the density in the line parameter carries the 1/d² falloff
+//! implicitly, [`LineAngles`]); [`AngularPdf`] chooses the vertex values. The paper's rule
+//! ([`AngularPdf::Vbl`]) approximates the *maximum* of the two scattering functions within the
+//! VSL's cone (an overestimate costs little variance, an underestimate a lot): find ω'_max, the
+//! direction in the cone where the receiver's BRDF (for `Lmm`, the VSL centre's phase function)
+//! peaks, and evaluate the product there. Per scattering function:
+//! * Lambert: f constant, f·cos peaks at the normal → the cone direction closest to the normal;
+//! * modified Phong: the lobe peaks at the mirror direction of the fixed direction (wo at a
+//!   shading point, wi at a VPL) → the cone direction closest to it; if that direction is below
+//!   the horizon (a cone straddling the surface), the one closest to the normal instead;
+//! * mirror, glass: delta lobes are never shading points or VPLs (their `eval` is 0 anyway);
+//! * Henyey–Greenstein: the lobe peaks along the light's forward direction for g > 0, backward
+//!   for g < 0 → the cone direction closest to that; isotropic (g = 0) has no peak, so `Lmm`
+//!   then takes the camera point's lobe, and if that is isotropic too, the cone axis.
+//!
+//! The VRL paper's rule ([`AngularPdf::Vrl`]) evaluates the product at the vertex itself (the
+//! cone's axis), which matches a VRL well but misses a VBL's light wherever a narrow lobe
+//! reaches into the cone without containing its axis.
+//!
+//! Two small additions to the paper, both exact in the limit R → 0: (1) `uniform_share` of the
+//! angular density is uniform (equiangular), so the PDF is positive wherever the integrand is
+//! (the maximum rule can still miss light, e.g. a cone straddling a horizon); (2) the angle is
+//! measured from a point at least R off the line ([`LineAngles`] with `h_min` = R): a VBL's
+//! contribution stops growing once the line comes closer than R, so a PDF that kept peaking
+//! like 1/d² there would only spend samples where nothing changes, and leave the rest of the
+//! segment with weights of 1/h.
+//!
+//! The VSL integral uses `directions` directions uniform in the cone, one shifted rank-1
+//! lattice per evaluation (unbiased, evenly spread for any count). Every function returns the
+//! radiance per light path traced (divide a set's sum by its path count) and is never NaN/Inf.
+use crate::{
+    TraceScene,
+    camera_paths::{MediaSegment, ShadingPoint},
+    light_paths::{LightSegment, SurfaceVertex},
+    lights::LightSample,
+    media,
+};
+use beamlight_scene::{
+    Rgb,
+    bsdf::Bsdf,
+    frame::Frame,
+    luminance_mean,
+    phase::HenyeyGreenstein,
+    rng::Sampler,
+    sampling::{self, LineAngles, PIECEWISE_LINEAR_MAX_VERTICES, PiecewiseLinear},
+};
+use glam::{Vec2, Vec3};
+
+/// Which vertex values the piecewise-linear angular PDFs use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AngularPdf {
+    /// The paper's: the product of the scattering functions at ω'_max, the direction within
+    /// the VSL's cone where the receiver's BRDF (or the VSL centre's phase function) peaks.
+    Vbl,
+    /// The VRL paper's: the product at the vertex itself (the direction to the VSL centre).
+    Vrl,
+}
+
+/// Settings of the VBL/VSL estimators.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VblSettings {
+    /// Directions used to integrate a VSL's solid angle (eq. 9). The paper uses up to 100.
+    pub directions: u32,
+    /// Vertices of the piecewise-linear angular PDFs (2 ..= 64).
+    pub pdf_vertices: u32,
+    /// Vertex values of the angular PDFs.
+    pub pdf: AngularPdf,
+    /// Share of the angular PDF that is uniform in the angle (a defensive floor, see the module
+    /// documentation); 0 is the paper's PDF alone.
+    pub uniform_share: f32,
+}
+
+impl Default for VblSettings {
+    fn default() -> Self {
+        Self {
+            directions: 16,
+            pdf_vertices: 16,
+            pdf: AngularPdf::Vbl,
+            uniform_share: 0.1,
+        }
+    }
+}
+
+/// The cone of gather directions from a receiver whose rays pass within R of a VSL centre.
+#[derive(Clone, Copy, Debug)]
+struct Cone {
+    axis: Vec3,
+    cos: f32,
+    sin: f32,
+    /// 1 − cos θmax, formed without cancellation.
+    one_minus_cos: f32,
+    /// Ω / (πR²): the solid angle times the kernel (1/d² for R = 0).
+    weight: f32,
+}
+
+/// The VSL of squared radius `r2` centred at `centre`, seen from `from`; `fallback` is the
+/// hemisphere's axis when the two points coincide. `None` when there is nothing to gather
+/// (coincident points and R = 0).
+fn vsl_cone(from: Vec3, centre: Vec3, r2: f32, fallback: Vec3) -> Option<Cone> {
+    let to = centre - from;
+    let d2 = to.length_squared();
+    let d = d2.sqrt();
+    let axis = if d > 0.0 && (to / d).is_finite() {
+        to / d
+    } else {
+        fallback
+    };
+    let cone = if d2 > r2 {
+        // sin²θmax = R²/d²; 1 − cos = sin²/(1 + cos) keeps tiny cones exact.
+        let sin2 = r2 / d2;
+        let cos = ((d2 - r2) / d2).max(0.0).sqrt();
+        Cone {
+            axis,
+            cos,
+            sin: sin2.sqrt(),
+            one_minus_cos: sin2 / (1.0 + cos),
+            weight: 2.0 / (d2 * (1.0 + cos)),
+        }
+    } else {
+        // Inside the sphere: the hemisphere facing the centre.
+        Cone {
+            axis,
+            cos: 0.0,
+            sin: 1.0,
+            one_minus_cos: 1.0,
+            weight: 2.0 / r2,
+        }
+    };
+    (cone.weight.is_finite() && cone.weight > 0.0 && axis.is_finite()).then_some(cone)
+}
+
+/// The direction within `cone` closest to the unit direction `a`.
+fn closest_in_cone(cone: &Cone, a: Vec3) -> Vec3 {
+    let ca = a.dot(cone.axis);
+    if ca >= cone.cos {
+        return a;
+    }
+    // Rotate the axis towards `a` by the cone's half-angle.
+    let perp = a - cone.axis * ca;
+    let len = perp.length();
+    let perp = if len > 1e-6 {
+        perp / len
+    } else {
+        // `a` opposite the axis: every rim direction is equally close.
+        Frame::from_normal(cone.axis).s
+    };
+    (cone.axis * cone.cos + perp * cone.sin).normalize()
+}
+
+/// (1/(πR²)) ∫_cone g(ω') dω', with `n` directions of a lattice shifted by `shift`.
+fn integrate_cone(cone: &Cone, n: u32, shift: Vec2, mut g: impl FnMut(Vec3) -> Rgb) -> Rgb {
+    let n = n.max(1);
+    let frame = Frame::from_normal(cone.axis);
+    let mut sum = Rgb::ZERO;
+    for k in 0..n {
+        let local = sampling::uniform_cone_1mc(sampling::shifted_lattice(k, n, shift), cone.one_minus_cos);
+        sum += g(frame.to_world(local).normalize());
+    }
+    sum * (cone.weight / n as f32)
+}
+
+/// A squared radius fit for use: NaN or negative → 0 (the VRL/VPL limit).
+#[inline]
+fn clean_r2(r2: f32) -> f32 {
+    if r2 > 0.0 { r2 } else { 0.0 }
+}
+
+#[inline]
+fn finite_or_zero(c: Rgb) -> Rgb {
+    if c.is_finite() { c.max(Rgb::ZERO) } else { Rgb::ZERO }
+}
+
+/// Where a scattering function at a surface peaks, as an outgoing direction on the side of
+/// `n`: the mirror direction of `fixed` for Phong (with a specular part), the normal otherwise.
+fn surface_peak(bsdf: &Bsdf, n: Vec3, fixed: Vec3) -> Vec3 {
+    match bsdf {
+        Bsdf::Phong { specular, .. } if specular.max_element() > 0.0 => {
+            let r = n * (2.0 * n.dot(fixed)) - fixed;
+            r.try_normalize().unwrap_or(n)
+        }
+        _ => n,
+    }
+}
+
+/// ω'_max for a surface receiver (or, mirrored, a surface VSL): the direction in the cone
+/// closest to `peak`, or closest to the normal `n` if that one is below the horizon.
+fn surface_max_dir(cone: &Cone, peak: Vec3, n: Vec3) -> Vec3 {
+    let w = closest_in_cone(cone, peak);
+    if w.dot(n) > 0.0 { w } else { closest_in_cone(cone, n) }
+}
+
+/// The vertex angles of a piecewise-linear PDF over [θ0, θ1] with `k` vertices.
+#[inline]
+fn vertex_angle(line: &LineAngles, i: usize, k: usize) -> f32 {
+    let f = i as f32 / (k - 1) as f32;
+    line.theta0 + (line.theta1 - line.theta0) * f
+}
+
+#[inline]
+fn vertex_count(settings: &VblSettings) -> usize {
+    (settings.pdf_vertices as usize).clamp(2, PIECEWISE_LINEAR_MAX_VERTICES)
+}
+
+/// Samples the line parameter by a piecewise-linear density in the angle (`value(t)` gives the
+/// vertex values). Returns `(t, pdf in t)`; pdf 0 when there is nothing to sample.
+fn sample_angular(
+    line: &LineAngles,
+    t0: f32,
+    t1: f32,
+    settings: &VblSettings,
+    u: f32,
+    mut value: impl FnMut(f32) -> f32,
+) -> (f32, f32) {
+    let k = vertex_count(settings);
+    let mut values = [0.0f32; PIECEWISE_LINEAR_MAX_VERTICES];
+    for (i, v) in values.iter_mut().enumerate().take(k) {
+        *v = value(line.t(vertex_angle(line, i, k)).clamp(t0, t1));
+    }
+    let pl = PiecewiseLinear::new(line.theta0, line.theta1, &values[..k], settings.uniform_share);
+    let (theta, pdf_theta) = pl.sample(u);
+    let t = line.t(theta).clamp(t0, t1);
+    let pdf = pdf_theta * line.dtheta_dt(t);
+    (t, if pdf.is_finite() && pdf > 0.0 { pdf } else { 0.0 })
+}
+
+/// A shadow ray's end at a point inside a medium (no surface to step off).
+fn medium_target(to: Vec3, dist: f32, wi: Vec3) -> LightSample {
+    LightSample {
+        p: to,
+        n: None,
+        wi,
+        dist,
+        target: to,
+        contribution: Rgb::ONE,
+        pdf: 0.0,
+    }
+}
+
+/// A shadow ray's end at a VSL centre on a surface: just off the surface on the side its light
+/// arrived from (the only side it reflects to), so a receiver behind the surface is occluded
+/// even when it lies within R of the centre.
+fn vsl_target(ts: &TraceScene, vpl: &SurfaceVertex, w: Vec3, dist: f32) -> LightSample {
+    let q = Vec3::from(vpl.pos);
+    LightSample {
+        p: q,
+        n: Some(Vec3::from(vpl.normal)),
+        wi: w,
+        dist,
+        target: ts.spawn_from_triangle(vpl.tri, q, Vec3::from(vpl.wi)),
+        contribution: Rgb::ONE,
+        pdf: 0.0,
+    }
+}
+
+/// Transmittance × visibility from `origin` (already off its surface) to `target`, starting in
+/// `medium`; 1 when the points coincide (a receiver at the VSL centre).
+fn connect(ts: &TraceScene, origin: Vec3, target: LightSample, medium: Option<u32>, s: &mut Sampler) -> Rgb {
+    if !(target.dist > 0.0) {
+        return Rgb::ONE;
+    }
+    ts.shadow_transmittance(origin, &target, medium, s)
+}
+
+/// The scattering function at a camera shading point as a function of the gather direction
+/// (world space, towards the light), with the cosine.
+struct Receiver {
+    bsdf: Bsdf,
+    frame: Frame,
+    wo: Vec3,
+    n: Vec3,
+}
+
+impl Receiver {
+    fn new(ts: &TraceScene, sp: &ShadingPoint) -> Option<Self> {
+        let bsdf = ts.scene.bsdf_at(sp.material, Some(Vec2::from(sp.uv)))?;
+        if bsdf.is_delta() {
+            return None;
+        }
+        let n = Vec3::from(sp.normal);
+        let frame = Frame::from_normal(n);
+        Some(Self {
+            bsdf,
+            frame,
+            wo: frame.to_local(Vec3::from(sp.wo)),
+            n,
+        })
+    }
+
+    #[inline]
+    fn f_cos(&self, w: Vec3) -> Rgb {
+        let wi = self.frame.to_local(w);
+        self.bsdf.eval(self.wo, wi) * wi.z.abs()
+    }
+
+    fn peak(&self) -> Vec3 {
+        surface_peak(&self.bsdf, self.n, self.frame.to_world(self.wo))
+    }
+}
+
+/// A VPL's scattering function as a function of the gather direction ω' at the receiver (the
+/// light leaves the VPL along −ω'), with the cosine at the VPL.
+struct SurfaceLight {
+    bsdf: Bsdf,
+    frame: Frame,
+    wi: Vec3,
+    n: Vec3,
+}
+
+impl SurfaceLight {
+    fn new(ts: &TraceScene, vpl: &SurfaceVertex) -> Option<Self> {
+        let bsdf = ts.scene.bsdf_at(vpl.material, Some(Vec2::new(vpl.u, vpl.v)))?;
+        if bsdf.is_delta() {
+            return None;
+        }
+        let n = Vec3::from(vpl.normal);
+        let frame = Frame::from_normal(n);
+        Some(Self {
+            bsdf,
+            frame,
+            wi: frame.to_local(Vec3::from(vpl.wi)),
+            n,
+        })
+    }
+
+    #[inline]
+    fn f_cos(&self, gather: Vec3) -> Rgb {
+        let wo = self.frame.to_local(-gather);
+        self.bsdf.eval(wo, self.wi) * wo.z.abs()
+    }
+
+    /// ω'_max for this VPL seen through `cone`: the lobe's peak is an outgoing direction at the
+    /// VPL, the gather direction is its opposite.
+    fn max_dir(&self, cone: &Cone) -> Vec3 {
+        let peak = surface_peak(&self.bsdf, self.n, self.frame.to_world(self.wi));
+        surface_max_dir(cone, -peak, -self.n)
+    }
+}
+
+/// The gather direction where an HG lobe `hg.eval(-ω', -travel)` peaks (the light's travel
+/// direction scattered forward for g > 0, backward for g < 0); `None` when isotropic.
+fn hg_peak_gather(g: f32, travel: Vec3) -> Option<Vec3> {
+    if g > 0.0 {
+        Some(-travel)
+    } else if g < 0.0 {
+        Some(travel)
+    } else {
+        None
+    }
+}
+
+/// Light a VBL scatters towards a camera shading point (`Lsm`, eqs. 8–9), per light path traced.
+/// `r2` is the squared VBL radius of the pass (eq. 11).
+pub fn vbl_to_surface(
+    ts: &TraceScene,
+    sp: &ShadingPoint,
+    vrl: &LightSegment,
+    r2: f32,
+    settings: &VblSettings,
+    s: &mut Sampler,
+) -> Rgb {
+    let scene = &ts.scene;
+    let m = &scene.media[vrl.medium as usize];
+    let r2 = clean_r2(r2);
+    let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
+    let p = Vec3::from(sp.pos);
+    let Some(rx) = Receiver::new(ts, sp) else {
+        return Rgb::ZERO;
+    };
+    let hg = HenyeyGreenstein { g: m.g };
+    // At the VSL centre the light travels along dv and leaves towards the receiver (−ω').
+    let phase = |w: Vec3| hg.eval(-w, -dv);
+    let len = vrl.length;
+    if !(len > 0.0) {
+        return Rgb::ZERO;
+    }
+    let line = LineAngles::new(ov, dv, 0.0, len, p, r2.sqrt());
+    let peak = rx.peak();
+    let (u, pdf) = sample_angular(&line, 0.0, len, settings, s.next_1d(), |t| {
+        let y = ov + dv * t;
+        match settings.pdf {
+            AngularPdf::Vrl => {
+                let w = (y - p).normalize_or_zero();
+                luminance_mean(rx.f_cos(w)) * phase(w)
+            }
+            AngularPdf::Vbl => match vsl_cone(p, y, r2, rx.n) {
+                Some(cone) => {
+                    let w = surface_max_dir(&cone, peak, rx.n);
+                    luminance_mean(rx.f_cos(w)) * phase(w)
+                }
+                None => 0.0,
+            },
+        }
+    });
+    let shift = s.next_2d();
+    if !(pdf > 0.0) {
+        return Rgb::ZERO;
+    }
+    let y = ov + dv * u;
+    let Some(cone) = vsl_cone(p, y, r2, rx.n) else {
+        return Rgb::ZERO;
+    };
+    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| rx.f_cos(w) * phase(w));
+    if l_vsl == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let sigma_s = m.sigma_s * m.density_at(y);
+    let t_vrl = media::transmittance(m, ov, dv, u, s);
+    let dist = (y - p).length();
+    // The shadow ray leaves on the viewer's side: a centre behind the surface is occluded.
+    let origin = ts.spawn_from_triangle(sp.tri, p, Vec3::from(sp.wo));
+    let tr = connect(ts, origin, medium_target(y, dist, cone.axis), sp.medium(), s);
+    finite_or_zero(Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * l_vsl * tr / pdf)
+}
+
+/// Light a VBL scatters into a camera media segment (`Lmm`, eq. 10), per light path traced.
+pub fn vbl_to_media(
+    ts: &TraceScene,
+    seg: &MediaSegment,
+    vrl: &LightSegment,
+    r2: f32,
+    settings: &VblSettings,
+    s: &mut Sampler,
+) -> Rgb {
+    let scene = &ts.scene;
+    let (mv, mc) = (&scene.media[vrl.medium as usize], &scene.media[seg.medium as usize]);
+    let r2 = clean_r2(r2);
+    let r = r2.sqrt();
+    let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
+    let (oc, dc) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+    if !(vrl.length > 0.0 && seg.length > 0.0) {
+        return Rgb::ZERO;
+    }
+    // Stage 1 (as the VRL paper): the VSL centre ∝ 1/dist(y(u), camera line)², an equiangular
+    // density in u since that squared distance is |B|² ((u − u0)² + h²); h floored at R, where
+    // the VSL stops resolving the distance.
+    let a = (ov - oc) - dc * (ov - oc).dot(dc);
+    let b = dv - dc * dv.dot(dc);
+    let bb = b.length_squared();
+    let (u, pdf_u) = if bb > 1e-12 {
+        let u0 = -a.dot(b) / bb;
+        let h = ((a.length_squared() - a.dot(b) * a.dot(b) / bb).max(0.0) / bb).sqrt();
+        let c = Vec3::new(u0, h.max(r * bb.sqrt().recip()), 0.0);
+        sampling::equiangular(Vec3::ZERO, Vec3::X, 0.0, vrl.length, c, s.next_1d())
+    } else {
+        // Parallel lines: every point is equally far; uniform.
+        (s.next_1d() * vrl.length, 1.0 / vrl.length)
+    };
+    if !(pdf_u > 0.0 && pdf_u.is_finite()) {
+        return Rgb::ZERO;
+    }
+    let y = ov + dv * u;
+    let (hv, hc) = (HenyeyGreenstein { g: mv.g }, HenyeyGreenstein { g: mc.g });
+    // ω' is the gather direction at the camera point (towards the VSL centre).
+    let phase_y = |w: Vec3| hv.eval(-w, -dv);
+    let phase_x = |w: Vec3| hc.eval(-dc, w);
+    // ω'_max: the VSL centre's HG peak, else the camera point's, else the cone axis.
+    let peak = hg_peak_gather(mv.g, dv).or_else(|| hg_peak_gather(mc.g, -dc));
+    // Stage 2: the camera point by a piecewise-linear PDF in the angle about y.
+    let line = LineAngles::new(oc, dc, 0.0, seg.length, y, r);
+    let (t, pdf_t) = sample_angular(&line, 0.0, seg.length, settings, s.next_1d(), |t| {
+        let x = oc + dc * t;
+        let w = match settings.pdf {
+            AngularPdf::Vrl => (y - x).normalize_or_zero(),
+            AngularPdf::Vbl => match vsl_cone(x, y, r2, -dc) {
+                Some(cone) => peak.map_or(cone.axis, |pk| closest_in_cone(&cone, pk)),
+                None => return 0.0,
+            },
+        };
+        phase_x(w) * phase_y(w)
+    });
+    let shift = s.next_2d();
+    if !(pdf_t > 0.0) {
+        return Rgb::ZERO;
+    }
+    let x = oc + dc * t;
+    let Some(cone) = vsl_cone(x, y, r2, -dc) else {
+        return Rgb::ZERO;
+    };
+    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| {
+        Rgb::splat(phase_x(w) * phase_y(w))
+    });
+    let sigma_y = mv.sigma_s * mv.density_at(y);
+    let sigma_x = mc.sigma_s * mc.density_at(x);
+    let t_vrl = media::transmittance(mv, ov, dv, u, s);
+    let t_cam = media::transmittance(mc, oc, dc, t, s);
+    let dist = (y - x).length();
+    let tr = connect(ts, x, medium_target(y, dist, cone.axis), Some(seg.medium), s);
+    finite_or_zero(
+        Rgb::from(seg.throughput) * Rgb::from(vrl.power) * sigma_y * t_vrl * sigma_x * t_cam * tr * l_vsl
+            / (pdf_u * pdf_t),
+    )
+}
+
+/// Light a surface VSL (a VPL inflated to radius R) scatters into a camera media segment
+/// (`Lms`, §3.3), per light path traced.
+pub fn vsl_to_media(
+    ts: &TraceScene,
+    seg: &MediaSegment,
+    vpl: &SurfaceVertex,
+    r2: f32,
+    settings: &VblSettings,
+    s: &mut Sampler,
+) -> Rgb {
+    let scene = &ts.scene;
+    let m = &scene.media[seg.medium as usize];
+    let r2 = clean_r2(r2);
+    let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+    let q = Vec3::from(vpl.pos);
+    if !(seg.length > 0.0) {
+        return Rgb::ZERO;
+    }
+    let Some(light) = SurfaceLight::new(ts, vpl) else {
+        return Rgb::ZERO;
+    };
+    let hg = HenyeyGreenstein { g: m.g };
+    let phase = |w: Vec3| hg.eval(-d, w);
+    let line = LineAngles::new(o, d, 0.0, seg.length, q, r2.sqrt());
+    let (t, pdf) = sample_angular(&line, 0.0, seg.length, settings, s.next_1d(), |t| {
+        let x = o + d * t;
+        let w = match settings.pdf {
+            AngularPdf::Vrl => (q - x).normalize_or_zero(),
+            AngularPdf::Vbl => match vsl_cone(x, q, r2, -d) {
+                Some(cone) => light.max_dir(&cone),
+                None => return 0.0,
+            },
+        };
+        luminance_mean(light.f_cos(w)) * phase(w)
+    });
+    let shift = s.next_2d();
+    if !(pdf > 0.0) {
+        return Rgb::ZERO;
+    }
+    let x = o + d * t;
+    let Some(cone) = vsl_cone(x, q, r2, -d) else {
+        return Rgb::ZERO;
+    };
+    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| light.f_cos(w) * phase(w));
+    if l_vsl == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let sigma_s = m.sigma_s * m.density_at(x);
+    let t_cam = media::transmittance(m, o, d, t, s);
+    let dist = (q - x).length();
+    let tr = connect(ts, x, vsl_target(ts, vpl, cone.axis, dist), Some(seg.medium), s);
+    finite_or_zero(Rgb::from(seg.throughput) * sigma_s * t_cam * Rgb::from(vpl.power) * l_vsl * tr / pdf)
+}
+
+/// Light a surface VSL sends to a camera shading point (`Lss`, §3.4; Hašan et al. 2009):
+/// Φ/(πR²) · V · ∫_cone f_sp cos · f_vsl cos dω', per light path traced.
+pub fn vsl_to_surface(
+    ts: &TraceScene,
+    sp: &ShadingPoint,
+    vpl: &SurfaceVertex,
+    r2: f32,
+    settings: &VblSettings,
+    s: &mut Sampler,
+) -> Rgb {
+    let r2 = clean_r2(r2);
+    let (p, q) = (Vec3::from(sp.pos), Vec3::from(vpl.pos));
+    let (Some(rx), Some(light)) = (Receiver::new(ts, sp), SurfaceLight::new(ts, vpl)) else {
+        return Rgb::ZERO;
+    };
+    let shift = s.next_2d();
+    let Some(cone) = vsl_cone(p, q, r2, rx.n) else {
+        return Rgb::ZERO;
+    };
+    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| rx.f_cos(w) * light.f_cos(w));
+    if l_vsl == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let origin = ts.spawn_from_triangle(sp.tri, p, Vec3::from(sp.wo));
+    let dist = (q - p).length();
+    let tr = connect(ts, origin, vsl_target(ts, vpl, cone.axis, dist), sp.medium(), s);
+    finite_or_zero(Rgb::from(sp.throughput) * Rgb::from(vpl.power) * l_vsl * tr)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cone_weight_is_the_solid_angle_over_the_disc_area() {
+        for (d, r) in [(1.0f32, 0.1f32), (2.0, 1.0), (1.0, 0.999), (3.0, 1e-4)] {
+            let c = vsl_cone(Vec3::ZERO, Vec3::new(0.0, d, 0.0), r * r, Vec3::Z).unwrap();
+            let omega = 2.0 * std::f64::consts::PI * (1.0 - (1.0 - (r as f64 / d as f64).powi(2)).sqrt());
+            let want = omega / (std::f64::consts::PI * (r as f64).powi(2));
+            assert!((c.weight as f64 / want - 1.0).abs() < 1e-4, "d {d} R {r}");
+            assert!((c.one_minus_cos as f64 * 2.0 * std::f64::consts::PI / omega - 1.0).abs() < 1e-4);
+        }
+        // R = 0: exactly 1/d²; inside: the hemisphere, 2/R²; coincident with R = 0: nothing.
+        let c = vsl_cone(Vec3::ZERO, Vec3::new(0.0, 2.0, 0.0), 0.0, Vec3::Z).unwrap();
+        assert_eq!((c.weight, c.one_minus_cos), (0.25, 0.0));
+        let c = vsl_cone(Vec3::ZERO, Vec3::new(0.0, 0.5, 0.0), 1.0, Vec3::Z).unwrap();
+        assert_eq!((c.weight, c.cos, c.axis), (2.0, 0.0, Vec3::Y));
+        let c = vsl_cone(Vec3::ONE, Vec3::ONE, 0.25, Vec3::Z).unwrap();
+        assert_eq!(c.axis, Vec3::Z);
+        assert!(vsl_cone(Vec3::ONE, Vec3::ONE, 0.0, Vec3::Z).is_none());
+    }
+
+    #[test]
+    fn closest_direction_in_a_cone() {
+        let c = vsl_cone(Vec3::ZERO, Vec3::Z, 0.25, Vec3::Z).unwrap(); // half-angle 30°
+        let inside = Vec3::new(0.1, 0.0, 1.0).normalize();
+        assert_eq!(closest_in_cone(&c, inside), inside);
+        let w = closest_in_cone(&c, Vec3::X);
+        assert!((w - Vec3::new(0.5, 0.0, 0.75f32.sqrt())).length() < 1e-6, "{w}");
+        let w = closest_in_cone(&c, -Vec3::Z);
+        assert!((w.dot(Vec3::Z) - c.cos).abs() < 1e-6 && (w.length() - 1.0).abs() < 1e-6);
+    }
+}
