@@ -209,7 +209,7 @@ fn all_components_add_up_to_the_path_tracers_image() {
             ..Default::default()
         },
     };
-    let result = render(&ts, &opts, |_, _| {}).unwrap();
+    let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
     let ours: Vec<DVec3> = result.components.iter().map(|f| f.image().mean().as_dvec3()).collect();
     for c in Component::ALL {

@@ -107,7 +107,7 @@ fn components_match(lumpy: bool) {
             ..Default::default()
         },
     };
-    let result = render(&ts, &opts, |_, _| {}).unwrap();
+    let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
     let ours: Vec<DVec3> = result.components.iter().map(|f| f.image().mean().as_dvec3()).collect();
     let beauty = result.film.image().mean().as_dvec3();
@@ -169,7 +169,7 @@ fn clamping_loses_energy_on_a_glossy_scene() {
                 ..Default::default()
             },
         };
-        let r = render(&ts, &opts, |_, _| {}).unwrap();
+        let r = render(&ts, &opts, |_| true).unwrap();
         // The indirect components, the ones clamping touches.
         [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm]
             .iter()

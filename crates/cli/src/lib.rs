@@ -1,7 +1,7 @@
 //! The `beamlight` command line: `render`, `compare`, `info`.
 use anyhow::{Context, Result, bail};
 use beamlight_render::{
-    Budget, Method, RenderOptions, compare,
+    Budget, Film, Method, RenderOptions, compare,
     components::{Component, SceneFeatures},
     many_lights::ManyLightSettings,
     output,
@@ -105,6 +105,10 @@ struct RenderArgs {
     /// caustics), in scene units (default: 2.5 % of the scene's diagonal).
     #[arg(long)]
     radius: Option<f32>,
+    /// Also write the image (EXR and preview) every SECONDS while rendering, atomically, so
+    /// an interrupted render leaves its latest state readable.
+    #[arg(long, value_name = "SECONDS")]
+    write_every: Option<f64>,
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
     alpha: f32,
@@ -155,6 +159,11 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         && !(r.is_finite() && r > 0.0)
     {
         bail!("--radius must be a finite distance > 0, got {r}");
+    }
+    if let Some(t) = args.write_every
+        && !(t.is_finite() && t > 0.0)
+    {
+        bail!("--write-every must be a positive number of seconds, got {t}");
     }
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha must lie strictly between 0 and 1, got {}", args.alpha);
@@ -226,31 +235,32 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         },
     };
     let bar = progress_bar(&budget);
-    let result = beamlight_render::render(&ts, &opts, |done, _| bar.set_position(done)).map_err(anyhow::Error::msg)?;
+    let outputs = Outputs {
+        args: &args,
+        method,
+        backend: &backend.to_string(),
+    };
+    let mut last_write = Instant::now();
+    let mut write_error = None;
+    let result = beamlight_render::render(&ts, &opts, |p| {
+        bar.set_position(p.passes);
+        if let Some(every) = args.write_every
+            && last_write.elapsed().as_secs_f64() >= every
+            && write_error.is_none()
+        {
+            write_error = outputs.write(p.film, p.components, p.passes, p.elapsed).err();
+            last_write = Instant::now();
+        }
+        // An image that cannot be written ends the render now, not hours later.
+        write_error.is_none()
+    })
+    .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
-
-    let image = result.film.image();
-    let secs = result.elapsed.as_secs_f64();
-    let metadata = [
-        ("beamlight.method", method.name().to_string()),
-        ("beamlight.passes", result.passes.to_string()),
-        ("beamlight.spp", result.passes.to_string()),
-        ("beamlight.seed", args.seed.to_string()),
-        ("beamlight.render_seconds", format!("{secs:.3}")),
-        ("beamlight.scene", args.scene.display().to_string()),
-        ("beamlight.backend", backend.to_string()),
-        ("beamlight.rejected_samples", result.film.rejected.to_string()),
-    ];
-    let layers: Vec<(Component, beamlight_render::Image)> = Component::ALL
-        .iter()
-        .zip(&result.components)
-        .map(|(c, f)| (*c, f.image()))
-        .collect();
-    let named: Vec<(&str, &beamlight_render::Image)> = layers.iter().map(|(c, i)| (c.name(), i)).collect();
-    output::write_exr_layers(&args.output, &image, &named, &metadata)?;
-    if let Some(p) = &args.preview {
-        output::write_png(p, &image, args.exposure)?;
+    if let Some(e) = write_error {
+        return Err(e.context("writing an intermediate image (--write-every)"));
     }
+    outputs.write(&result.film, &result.components, result.passes, result.elapsed)?;
+    let secs = result.elapsed.as_secs_f64();
     if result.film.rejected > 0 {
         eprintln!(
             "warning: {} non-finite samples were dropped (please report this scene)",
@@ -265,6 +275,42 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         args.output.display()
     );
     Ok(())
+}
+
+/// Where and how the render's images are written (at the end, and with `--write-every`).
+struct Outputs<'a> {
+    args: &'a RenderArgs,
+    method: Method,
+    backend: &'a str,
+}
+
+impl Outputs<'_> {
+    /// Writes the EXR (beauty + component layers) and the preview, each atomically.
+    fn write(&self, film: &Film, components: &[Film], passes: u64, elapsed: Duration) -> Result<()> {
+        let args = self.args;
+        let image = film.image();
+        let metadata = [
+            ("beamlight.method", self.method.name().to_string()),
+            ("beamlight.passes", passes.to_string()),
+            ("beamlight.spp", passes.to_string()),
+            ("beamlight.seed", args.seed.to_string()),
+            ("beamlight.render_seconds", format!("{:.3}", elapsed.as_secs_f64())),
+            ("beamlight.scene", args.scene.display().to_string()),
+            ("beamlight.backend", self.backend.to_string()),
+            ("beamlight.rejected_samples", film.rejected.to_string()),
+        ];
+        let layers: Vec<(Component, beamlight_render::Image)> = Component::ALL
+            .iter()
+            .zip(components)
+            .map(|(c, f)| (*c, f.image()))
+            .collect();
+        let named: Vec<(&str, &beamlight_render::Image)> = layers.iter().map(|(c, i)| (c.name(), i)).collect();
+        output::write_exr_layers(&args.output, &image, &named, &metadata)?;
+        if let Some(p) = &args.preview {
+            output::write_png(p, &image, args.exposure)?;
+        }
+        Ok(())
+    }
 }
 
 fn check_output_path(p: &Path, ext: &str) -> Result<()> {

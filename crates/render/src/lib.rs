@@ -11,4 +11,4 @@ pub mod progressive;
 pub mod radius;
 
 pub use film::{Film, Image};
-pub use progressive::{Budget, Method, RenderOptions, RenderResult, render};
+pub use progressive::{Budget, Method, Progress, RenderOptions, RenderResult, render};

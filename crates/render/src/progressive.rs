@@ -72,11 +72,24 @@ pub struct RenderResult {
     pub elapsed: Duration,
 }
 
-/// Renders until the budget is spent. `on_pass(done, total_if_known)` is called after each pass.
+/// The state of a render after a pass, handed to the caller (progress display, intermediate
+/// images).
+pub struct Progress<'a> {
+    pub passes: u64,
+    /// Total passes when the budget is a pass count.
+    pub total: Option<u64>,
+    pub film: &'a Film,
+    /// Per-component films (empty unless `RenderOptions::components`).
+    pub components: &'a [Film],
+    pub elapsed: Duration,
+}
+
+/// Renders until the budget is spent, calling `on_pass` after each pass; when it returns
+/// false the render stops there (the result holds the passes done).
 pub fn render(
     ts: &TraceScene,
     opts: &RenderOptions,
-    mut on_pass: impl FnMut(u64, Option<u64>),
+    mut on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
     match opts.method {
         Method::Pt => {}
@@ -158,7 +171,16 @@ pub fn render(
             f.add_pass(b);
         }
         passes += 1;
-        on_pass(passes, total);
+        let go_on = on_pass(&Progress {
+            passes,
+            total,
+            film: &film,
+            components: &components,
+            elapsed: started.elapsed(),
+        });
+        if !go_on {
+            break;
+        }
     }
     Ok(RenderResult {
         film,

@@ -1,7 +1,14 @@
-//! BVH build time and ray throughput on a procedural scene of ≥ 1M triangles, and path-tracer
-//! samples per second on the bundled fog box. Run with `cargo bench -p beamlight-trace`.
-use beamlight_scene::{load::load_scene, rng::Sampler};
-use beamlight_trace::{TraceScene, bvh::Bvh, pt};
+//! BVH build time and ray throughput on a procedural scene of ≥ 1M triangles; path-tracer
+//! samples, light paths, and VRL/VPL evaluations per second on the bundled fog box. Run with
+//! `cargo bench -p beamlight-trace`.
+use beamlight_scene::{Rgb, load::load_scene, rng::Sampler};
+use beamlight_trace::{
+    TraceScene,
+    bvh::Bvh,
+    camera_paths::{CameraPathSettings, GatherSet, trace_camera_paths},
+    light_paths::{LightSet, LightTracerSettings, trace_light_paths},
+    pt, vpl, vrl,
+};
 use divan::{Bencher, counter::ItemsCount};
 use glam::Vec3;
 use std::sync::OnceLock;
@@ -78,11 +85,18 @@ fn visibility_rays(b: Bencher) {
         .bench(|| rays.iter().filter(|(o, d)| bvh.occluded(*o, *d, f32::INFINITY)).count());
 }
 
+fn fog_box() -> &'static TraceScene {
+    static SCENE: OnceLock<TraceScene> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/scenes/cornell_fog.toml");
+        TraceScene::new(load_scene(std::path::Path::new(path)).expect("bundled scene"))
+    })
+}
+
 /// One path-traced sample for every pixel of the 256×256 fog box, on one thread.
 #[divan::bench(sample_count = 5)]
 fn path_tracer_fog_box(b: Bencher) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/scenes/cornell_fog.toml");
-    let ts = TraceScene::new(load_scene(std::path::Path::new(path)).expect("bundled scene"));
+    let ts = fog_box();
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     let settings = pt::PathTracerSettings::default();
     let mut pass = 0;
@@ -92,7 +106,74 @@ fn path_tracer_fog_box(b: Bencher) {
         for y in 0..h {
             for x in 0..w {
                 let mut s = Sampler::new(0, pass, y * w + x);
-                sum += pt::sample_pixel(&ts, &settings, x, y, w, h, &mut s).x;
+                sum += pt::sample_pixel(ts, &settings, x, y, w, h, &mut s).x;
+            }
+        }
+        sum
+    });
+}
+
+/// Light paths traced into VRLs, VPLs, caustic photons and beams on the fog box, one thread
+/// (items: light paths).
+#[divan::bench(sample_count = 10)]
+fn light_paths_fog_box(b: Bencher) {
+    let ts = fog_box();
+    let settings = LightTracerSettings::default();
+    let mut pass = 0;
+    b.counter(ItemsCount::new(4096usize)).bench_local(|| {
+        pass += 1;
+        trace_light_paths(ts, &settings, 4096, 0, pass)
+    });
+}
+
+/// One pass's gather data and light set of the fog box at 64×64, for the evaluation benches.
+fn gather_fixture() -> &'static (GatherSet, LightSet) {
+    static DATA: OnceLock<(GatherSet, LightSet)> = OnceLock::new();
+    DATA.get_or_init(|| {
+        let ts = fog_box();
+        let gather = trace_camera_paths(ts, &CameraPathSettings::default(), 64, 64, 0, 0);
+        let lights = trace_light_paths(ts, &LightTracerSettings::default(), 64, 0, 0);
+        (gather, lights)
+    })
+}
+
+/// Unclamped VRL evaluations (`Lsm` at shading points and `Lmm` along media segments, each
+/// with its shadow ray and transmittances), one thread (items: gather point × VRL pairs).
+#[divan::bench(sample_count = 5)]
+fn vrl_evaluations_fog_box(b: Bencher) {
+    let ts = fog_box();
+    let (gather, lights) = gather_fixture();
+    let pairs = (gather.shading_points.len() + gather.media_segments.len()) * lights.vrls.len();
+    b.counter(ItemsCount::new(pairs)).bench_local(|| {
+        let mut s = Sampler::new(1, 0, 0);
+        let mut sum = Rgb::ZERO;
+        for v in &lights.vrls {
+            for sp in &gather.shading_points {
+                sum += vrl::vrl_to_surface(ts, sp, v, 0.0, &mut s);
+            }
+            for seg in &gather.media_segments {
+                sum += vrl::vrl_to_media(ts, seg, v, 0.0, &mut s);
+            }
+        }
+        sum
+    });
+}
+
+/// Unclamped VPL evaluations (`Lss` and `Lms`), one thread (items: gather point × VPL pairs).
+#[divan::bench(sample_count = 5)]
+fn vpl_evaluations_fog_box(b: Bencher) {
+    let ts = fog_box();
+    let (gather, lights) = gather_fixture();
+    let pairs = (gather.shading_points.len() + gather.media_segments.len()) * lights.vpls.len();
+    b.counter(ItemsCount::new(pairs)).bench_local(|| {
+        let mut s = Sampler::new(1, 0, 0);
+        let mut sum = Rgb::ZERO;
+        for v in &lights.vpls {
+            for sp in &gather.shading_points {
+                sum += vpl::vpl_to_surface(ts, sp, v, 0.0, &mut s);
+            }
+            for seg in &gather.media_segments {
+                sum += vpl::vpl_to_media(ts, seg, v, 0.0, &mut s);
             }
         }
         sum
