@@ -489,6 +489,32 @@ mod tests {
     }
 
     #[test]
+    fn lattice_points_stay_in_the_square_and_cones_keep_tiny_openings() {
+        for n in [1u32, 2, 16, 100] {
+            for shift in [Vec2::ZERO, Vec2::splat(ONE_MINUS_EPSILON), Vec2::new(0.3, 0.9)] {
+                for k in 0..n {
+                    let u = shifted_lattice(k, n, shift);
+                    assert!(
+                        u.x >= 0.0 && u.x < 1.0 && u.y >= 0.0 && u.y < 1.0,
+                        "{k}/{n} {shift}: {u}"
+                    );
+                }
+            }
+        }
+        // 1 − cos θmax = 1e-12 (a sphere 1e6 radii away) rounds to a point with `uniform_cone`.
+        let w = uniform_cone_1mc(Vec2::new(1.0, 0.0), 1e-12);
+        let theta = w.truncate().length().atan2(w.z);
+        assert!((theta / 2e-12f32.sqrt() - 1.0).abs() < 1e-3, "{theta}");
+        assert_eq!(uniform_cone_1mc(Vec2::new(0.7, 0.2), 0.0), Vec3::Z);
+        // Beyond a hemisphere up to the whole sphere, unit length throughout.
+        for omc in [1.0, 1.5, 2.0, 3.0] {
+            for u in corner_inputs() {
+                assert!((uniform_cone_1mc(u, omc).length() - 1.0).abs() < 1e-5);
+            }
+        }
+    }
+
+    #[test]
     fn tiny_cone_keeps_its_opening_angle() {
         // cos_max = 1 − 1e-6 ⇒ θmax ≈ 1.414e-3; the edge sample must land on the edge.
         let cos_max = 1.0 - 1e-6;
