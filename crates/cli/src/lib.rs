@@ -337,46 +337,68 @@ fn progress_bar(budget: &Budget) -> indicatif::ProgressBar {
     }
 }
 
+/// `writeln!` into a report string (formatting into a `String` cannot fail).
+macro_rules! outln {
+    ($out:expr, $($arg:tt)*) => {{
+        use std::fmt::Write as _;
+        let _ = writeln!($out, $($arg)*);
+    }};
+}
+
+/// Prints a finished report; a closed pipe (`beamlight info … | head`) is not an error.
+fn print_stdout(text: &str) -> Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e).context("cannot write to standard output"),
+        _ => Ok(()),
+    }
+}
+
 fn compare_cmd(a: &Path, b: &Path) -> Result<()> {
+    let mut out = String::new();
     let (ia, _) = output::read_exr(a)?;
     let (ib, _) = output::read_exr(b)?;
     let m = compare::compare(&ia, &ib).map_err(|e| anyhow::anyhow!("{} vs {}: {e}", a.display(), b.display()))?;
-    println!("RMSE    {:.6e}", m.rmse);
-    println!("relMSE  {:.6e}", m.rel_mse);
-    println!("MAE     {:.6e}", m.mae);
-    println!("max     {:.6e}", m.max_abs);
-    Ok(())
+    outln!(out, "RMSE    {:.6e}", m.rmse);
+    outln!(out, "relMSE  {:.6e}", m.rel_mse);
+    outln!(out, "MAE     {:.6e}", m.mae);
+    outln!(out, "max     {:.6e}", m.max_abs);
+    print_stdout(&out)
 }
 
 fn info(path: &Path) -> Result<()> {
+    let mut out = String::new();
     let scene = load_scene(path)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     let ts = TraceScene::new(scene);
     let s = &ts.scene;
-    println!("scene       {}", path.display());
-    println!("image       {}x{}", s.render.width, s.render.height);
+    outln!(out, "scene       {}", path.display());
+    outln!(out, "image       {}x{}", s.render.width, s.render.height);
     let cam = &s.camera;
-    println!(
+    outln!(
+        out,
         "camera      {} at {:?}, yfov {:.1}°",
         cam.name.as_deref().unwrap_or("(default)"),
         cam.position(),
         cam.yfov.to_degrees()
     );
     let (lo, hi) = s.bounds();
-    println!("bounds      {lo:?} .. {hi:?}");
-    println!("triangles   {}", s.triangles.len());
+    outln!(out, "bounds      {lo:?} .. {hi:?}");
+    outln!(out, "triangles   {}", s.triangles.len());
     let emissive = s
         .triangles
         .iter()
         .filter(|t| s.materials[t.material as usize].is_emissive())
         .count();
-    println!(
+    outln!(
+        out,
         "emitters    {emissive} emissive triangles, {} punctual lights",
         s.lights.len()
     );
-    println!("materials");
+    outln!(out, "materials");
     for m in &s.materials {
         let kind = match &m.bsdf {
             None => "medium boundary (index-matched)".to_string(),
@@ -396,9 +418,9 @@ fn info(path: &Path) -> Result<()> {
         } else {
             String::new()
         };
-        println!("  {:<20} {kind}{emit}", m.name);
+        outln!(out, "  {:<20} {kind}{emit}", m.name);
     }
-    println!("media");
+    outln!(out, "media");
     for (i, m) in s.media.iter().enumerate() {
         let region = if s.global_medium == Some(i as u32) {
             "global"
@@ -409,14 +431,19 @@ fn info(path: &Path) -> Result<()> {
             None => "homogeneous".to_string(),
             Some(g) => format!("grid {}x{}x{}", g.res.x, g.res.y, g.res.z),
         };
-        println!(
+        outln!(
+            out,
             "  {:<20} {region}, {kind}, sigma_s {:?}, sigma_a {:?}, g {}",
-            m.name, m.sigma_s, m.sigma_a, m.g
+            m.name,
+            m.sigma_s,
+            m.sigma_a,
+            m.g
         );
     }
     let needed = SceneFeatures::of(s).needed();
     let names: Vec<&str> = needed.iter().map(|c| c.name()).collect();
-    println!(
+    outln!(
+        out,
         "components  {} (of the many-light methods; `pt` renders the whole image)",
         if names.is_empty() {
             "none: the scene has no emitters".to_string()
@@ -427,7 +454,7 @@ fn info(path: &Path) -> Result<()> {
     let cam_medium = ts
         .camera_medium
         .map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
-    println!("camera in   {cam_medium}");
-    println!("backend     cpu (the path tracer runs on the CPU)");
-    Ok(())
+    outln!(out, "camera in   {cam_medium}");
+    outln!(out, "backend     cpu (the path tracer runs on the CPU)");
+    print_stdout(&out)
 }

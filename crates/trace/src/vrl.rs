@@ -67,25 +67,52 @@ pub fn vrl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vrl: &LightSegment, cl
     Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * f * tr * falloff(d2, clamp) / pdf
 }
 
+/// The point of closest approach and its distance, in the VRL's parameter u, for the squared
+/// distance from y(u) = ov + u·dv to the infinite line (oc, dc): that distance² is
+/// |A + uB|² = |B|² ((u − u0)² + h²) (A, B the parts of ov − oc and dv perpendicular to dc),
+/// so a density ∝ 1/distance² is the equiangular density about the point (u0, h) of the
+/// (u, ·) plane. `None` when the lines are parallel (the distance does not vary).
+fn near_line_apex(ov: Vec3, dv: Vec3, oc: Vec3, dc: Vec3, min_dist: f32) -> Option<Vec3> {
+    let a = (ov - oc) - dc * (ov - oc).dot(dc);
+    let b = dv - dc * dv.dot(dc);
+    let bb = b.length_squared();
+    (bb > 1e-12).then(|| {
+        let u0 = -a.dot(b) / bb;
+        let h = ((a.length_squared() - a.dot(b) * a.dot(b) / bb).max(0.0) / bb).sqrt();
+        // A floor on the distance itself is a floor of min_dist / |B| on h.
+        Vec3::new(u0, h.max(min_dist / bb.sqrt()), 0.0)
+    })
+}
+
+/// Stage 1 of the two-stage `Lmm` sampling (VRL paper): u ∈ [0, len] on the VRL with density
+/// ∝ 1 / max(dist(y(u), camera line), `min_dist`)² — uniform for parallel lines. Returns
+/// (u, pdf).
+pub fn sample_near_line(ov: Vec3, dv: Vec3, len: f32, oc: Vec3, dc: Vec3, min_dist: f32, xi: f32) -> (f32, f32) {
+    match near_line_apex(ov, dv, oc, dc, min_dist) {
+        Some(c) => sampling::equiangular(Vec3::ZERO, Vec3::X, 0.0, len, c, xi),
+        None => (xi * len, 1.0 / len),
+    }
+}
+
+/// The density of [`sample_near_line`] at u.
+pub fn near_line_pdf(ov: Vec3, dv: Vec3, len: f32, oc: Vec3, dc: Vec3, min_dist: f32, u: f32) -> f32 {
+    if !(0.0..=len).contains(&u) {
+        return 0.0;
+    }
+    match near_line_apex(ov, dv, oc, dc, min_dist) {
+        Some(c) => sampling::equiangular_pdf(Vec3::ZERO, Vec3::X, 0.0, len, c, u),
+        None => 1.0 / len,
+    }
+}
+
 /// Light a VRL scatters into a camera media segment (`Lmm`).
 pub fn vrl_to_media(ts: &TraceScene, seg: &MediaSegment, vrl: &LightSegment, clamp: f32, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let (mv, mc) = (&scene.media[vrl.medium as usize], &scene.media[seg.medium as usize]);
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
     let (oc, dc) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
-    // Stage 1: u on the VRL with density ∝ 1 / dist(y(u), camera line)². That squared distance
-    // is |A + uB|² = |B|² ((u − u0)² + h²): an equiangular density in the parameter u.
-    let a = (ov - oc) - dc * (ov - oc).dot(dc);
-    let b = dv - dc * dv.dot(dc);
-    let bb = b.length_squared();
-    let (u, pdf_u) = if bb > 1e-12 {
-        let u0 = -a.dot(b) / bb;
-        let h = ((a.length_squared() - a.dot(b) * a.dot(b) / bb).max(0.0) / bb).sqrt();
-        sampling::equiangular(Vec3::ZERO, Vec3::X, 0.0, vrl.length, Vec3::new(u0, h, 0.0), s.next_1d())
-    } else {
-        // Parallel lines: every point is equally far; sample uniformly.
-        (s.next_1d() * vrl.length, 1.0 / vrl.length)
-    };
+    // Stage 1: u on the VRL ∝ 1 / dist(y(u), camera line)².
+    let (u, pdf_u) = sample_near_line(ov, dv, vrl.length, oc, dc, 0.0, s.next_1d());
     if !(pdf_u > 0.0) || !pdf_u.is_finite() {
         return Rgb::ZERO;
     }
