@@ -277,6 +277,44 @@ fn vsl_to_surface_converges_to_the_vpl_estimator() {
     );
 }
 
+#[test]
+fn the_same_holds_in_a_heterogeneous_medium() {
+    // A smooth lump of density (ratio-tracked transmittance, σs scaled by the density at each
+    // point): the VBL/VSL estimators must still agree with the VRL/VPL ones as R → 0.
+    let mut sc = scene(phong(0.2, 0.6, 20.0), 0.5);
+    let res = glam::UVec3::splat(12);
+    let values = (0..res.x * res.y * res.z)
+        .map(|i| {
+            let c = glam::UVec3::new(i % 12, i / 12 % 12, i / 144).as_vec3() / 11.0 - 0.5;
+            2.0 * (-4.0 * c.length_squared()).exp()
+        })
+        .collect();
+    sc.media[0].density = Some(beamlight_scene::medium::DensityGrid::new(
+        res,
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 2.0, 1.0),
+        values,
+    ));
+    let ts = TraceScene::new(sc);
+    let (l, seg) = (test_vrl(), test_segment());
+    let sp = shading_point(Vec3::new(-0.2, 0.0, 0.3), Vec3::new(0.3, 1.0, 0.2));
+    let vpl = wall_vpl(0.6, 0.2, Vec3::new(-1.0, 0.3, 0.2));
+    let settings = VblSettings::default();
+    let (n, r2) = (100_000, 1e-6);
+    let a = stats(n, 40, |s| vrl_to_surface(&ts, &sp, &l, 0.0, s));
+    let b = stats(n, 41, |s| vbl_to_surface(&ts, &sp, &l, r2, &settings, s));
+    assert_same_mean("heterogeneous Lsm", b, a, 1e-4);
+    let a = stats(n, 42, |s| vrl_to_media(&ts, &seg, &l, 0.0, s));
+    let b = stats(n, 43, |s| vbl_to_media(&ts, &seg, &l, r2, &settings, s));
+    assert_same_mean("heterogeneous Lmm", b, a, 1e-4);
+    let a = stats(n, 44, |s| vpl_to_media(&ts, &seg, &vpl, 0.0, s));
+    let b = stats(n, 45, |s| vsl_to_media(&ts, &seg, &vpl, r2, &settings, s));
+    assert_same_mean("heterogeneous Lms", b, a, 1e-4);
+    let a = stats(n / 10, 46, |s| vpl_to_surface(&ts, &sp, &vpl, 0.0, s));
+    let b = stats(n / 10, 47, |s| vsl_to_surface(&ts, &sp, &vpl, r2, &settings, s));
+    assert_same_mean("heterogeneous Lss", b, a, 1e-4);
+}
+
 // ---------------------------------------------------------------------------------------------
 // (b) Bounded where the point lights are singular
 // ---------------------------------------------------------------------------------------------
