@@ -7,7 +7,7 @@ use beamlight_render::{
     output,
 };
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
-use beamlight_trace::{TraceScene, pt::PathTracerSettings};
+use beamlight_trace::{TraceScene, pt::PathTracerSettings, vbl::VblSettings};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::{
     io::IsTerminal,
@@ -101,14 +101,18 @@ struct RenderArgs {
     /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
     #[arg(long)]
     clamp_distance: Option<f32>,
-    /// Initial radius R0 of the progressive estimators (photon mapping and photon beams for the
-    /// caustics), in scene units (default: 2.5 % of the scene's diagonal).
+    /// Initial radius R0 of the progressive estimators (virtual beam and spherical lights,
+    /// photon mapping and photon beams), in scene units (default: 2.5 % of the scene's diagonal).
     #[arg(long)]
     radius: Option<f32>,
     /// Also write the image (EXR and preview) every SECONDS while rendering, atomically, so
     /// an interrupted render leaves its latest state readable.
     #[arg(long, value_name = "SECONDS")]
     write_every: Option<f64>,
+    /// `vbl`: directions integrating each virtual spherical light's solid angle (paper eq. 9;
+    /// the paper uses up to 100).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    vsl_directions: u32,
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
     alpha: f32,
@@ -147,9 +151,6 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         MethodArg::VrlClamped => Method::VrlClamped,
         MethodArg::Vbl => Method::Vbl,
     };
-    if method == Method::Vbl {
-        bail!("--method vbl is not implemented yet; use --method pt (the reference), vrl or vrl-clamped");
-    }
     if let Some(c) = args.clamp_distance
         && !(c.is_finite() && c >= 0.0)
     {
@@ -232,6 +233,12 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             clamp: args.clamp_distance.unwrap_or(0.0),
             radius: args.radius.unwrap_or(0.0),
             alpha: args.alpha,
+            vbl: VblSettings {
+                directions: args.vsl_directions,
+                ..Default::default()
+            },
+            // The method decides between rays and beams.
+            lights: Default::default(),
         },
     };
     let bar = progress_bar(&budget);

@@ -1,6 +1,8 @@
-//! One pass of the unclamped VRL/VPL method (`--method vrl`) on the CPU: camera gather data and
-//! a fresh set of light paths, then every gather point against every virtual light, each
-//! transport component kept apart (`Component::ALL` order).
+//! One pass of the many-light methods on the CPU: camera gather data and a fresh set of light
+//! paths, then every gather point against every virtual light, each transport component kept
+//! apart (`Component::ALL` order). The indirect components come from virtual ray/point lights
+//! (`vrl`, `vrl-clamped`) or, inflated by the pass's radius, virtual beam/spherical lights
+//! (`vbl`). Light sets live for one pass only: memory does not grow as passes go on.
 //!
 //! Caustics come from the same light paths: progressive photon mapping over the caustic
 //! photons and progressive photon beams over the beams that leave specular bounces, with the
@@ -14,19 +16,34 @@ use beamlight_trace::{
     components::Component,
     direct,
     light_paths::{LightTracerSettings, trace_light_paths},
+    vbl::{self, VblSettings},
     vpl, vrl,
 };
 use rayon::prelude::*;
 
+/// How the light paths' records are gathered for the indirect components.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum VirtualLights {
+    /// Virtual ray lights and virtual point lights (`vrl`, `vrl-clamped`).
+    #[default]
+    Rays,
+    /// Virtual beam lights and virtual spherical lights with the pass's radius (`vbl`).
+    Beams,
+}
+
 /// Settings of the many-light methods.
 #[derive(Clone, Copy, Debug)]
 pub struct ManyLightSettings {
+    pub lights: VirtualLights,
+    /// The VBL/VSL estimators' settings (used with [`VirtualLights::Beams`]).
+    pub vbl: VblSettings,
     /// Light paths traced per pass (each leaves several VPLs and VRLs).
     pub light_paths_per_pass: u32,
-    /// Minimum distance in the inverse-square falloff (`vrl-clamped`); 0 for unclamped `vrl`.
+    /// Minimum distance in the inverse-square falloff of VRLs/VPLs (`vrl-clamped`); 0 for
+    /// unclamped `vrl`.
     pub clamp: f32,
-    /// Initial radius R0 of the progressive estimators (photon mapping, photon beams) in
-    /// scene units; 0 picks [`default_radius`].
+    /// Initial radius R0 of the progressive estimators (VBLs and VSLs, photon mapping, photon
+    /// beams) in scene units; 0 picks [`default_radius`].
     pub radius: f32,
     /// The radius reduction's α of eq. 11, in (0, 1): smaller shrinks faster.
     pub alpha: f32,
@@ -35,6 +52,8 @@ pub struct ManyLightSettings {
 impl Default for ManyLightSettings {
     fn default() -> Self {
         Self {
+            lights: VirtualLights::Rays,
+            vbl: VblSettings::default(),
             light_paths_per_pass: 64,
             clamp: 0.0,
             radius: 0.0,
@@ -105,6 +124,10 @@ pub fn many_light_pass(
     // Independent random streams for the gathers (the camera and light paths use their own).
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind);
 
+    // Each gather point against every virtual light: the sum over a light set divided by its
+    // path count M is the per-pass estimate.
+    let (clamp, vbl) = (settings.clamp, &settings.vbl);
+    let beams_on = settings.lights == VirtualLights::Beams;
     let at_points: Vec<(u32, [Rgb; N])> = gather
         .shading_points
         .par_iter()
@@ -113,18 +136,19 @@ pub fn many_light_pass(
             let mut s = stream(0, i);
             let mut c = [Rgb::ZERO; N];
             c[Component::Direct as usize] = direct::direct_at_surface(ts, sp, &mut s);
-            c[Component::Lss as usize] = lights
-                .vpls
-                .iter()
-                .map(|v| vpl::vpl_to_surface(ts, sp, v, settings.clamp, &mut s))
-                .sum::<Rgb>()
-                / m;
-            c[Component::Lsm as usize] = lights
-                .vrls
-                .iter()
-                .map(|v| vrl::vrl_to_surface(ts, sp, v, settings.clamp, &mut s))
-                .sum::<Rgb>()
-                / m;
+            let (lss, lsm) = if beams_on {
+                (
+                    sum(&lights.vpls, |v| vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut s)),
+                    sum(&lights.vrls, |v| vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut s)),
+                )
+            } else {
+                (
+                    sum(&lights.vpls, |v| vpl::vpl_to_surface(ts, sp, v, clamp, &mut s)),
+                    sum(&lights.vrls, |v| vrl::vrl_to_surface(ts, sp, v, clamp, &mut s)),
+                )
+            };
+            c[Component::Lss as usize] = lss / m;
+            c[Component::Lsm as usize] = lsm / m;
             c[Component::CausticSurface as usize] = photons.radiance(ts, sp) / m;
             (sp.pixel, c)
         })
@@ -137,18 +161,19 @@ pub fn many_light_pass(
             let mut s = stream(1, i);
             let mut c = [Rgb::ZERO; N];
             c[Component::Direct as usize] = direct::direct_in_medium(ts, seg, &mut s);
-            c[Component::Lms as usize] = lights
-                .vpls
-                .iter()
-                .map(|v| vpl::vpl_to_media(ts, seg, v, settings.clamp, &mut s))
-                .sum::<Rgb>()
-                / m;
-            c[Component::Lmm as usize] = lights
-                .vrls
-                .iter()
-                .map(|v| vrl::vrl_to_media(ts, seg, v, settings.clamp, &mut s))
-                .sum::<Rgb>()
-                / m;
+            let (lms, lmm) = if beams_on {
+                (
+                    sum(&lights.vpls, |v| vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut s)),
+                    sum(&lights.vrls, |v| vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut s)),
+                )
+            } else {
+                (
+                    sum(&lights.vpls, |v| vpl::vpl_to_media(ts, seg, v, clamp, &mut s)),
+                    sum(&lights.vrls, |v| vrl::vrl_to_media(ts, seg, v, clamp, &mut s)),
+                )
+            };
+            c[Component::Lms as usize] = lms / m;
+            c[Component::Lmm as usize] = lmm / m;
             c[Component::CausticVolume as usize] = beams.radiance(ts, seg, &mut s) / m;
             (seg.pixel, c)
         })
@@ -158,4 +183,9 @@ pub fn many_light_pass(
             out[k][pixel as usize] += v;
         }
     }
+}
+
+/// Σ over a light set of one virtual light's contribution.
+fn sum<T>(lights: &[T], mut f: impl FnMut(&T) -> Rgb) -> Rgb {
+    lights.iter().map(&mut f).sum()
 }

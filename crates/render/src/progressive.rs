@@ -2,7 +2,7 @@
 //! `(scene, settings, seed, pass index)`, averaged into a [`Film`] until the budget runs out.
 use crate::{
     Film,
-    many_lights::{self, ManyLightSettings},
+    many_lights::{self, ManyLightSettings, VirtualLights},
 };
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
@@ -91,18 +91,12 @@ pub fn render(
     opts: &RenderOptions,
     mut on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
-    match opts.method {
-        Method::Pt => {}
-        Method::Vrl | Method::VrlClamped => {}
-        Method::Vbl => {
-            return Err(format!(
-                "method '{}' is not available yet: use 'pt' (the reference), 'vrl' or 'vrl-clamped'",
-                opts.method.name()
-            ));
-        }
-    }
     // `vrl` is unclamped by definition; `vrl-clamped` uses the given distance or the default.
     let many_light_settings = ManyLightSettings {
+        lights: match opts.method {
+            Method::Vbl => VirtualLights::Beams,
+            _ => VirtualLights::Rays,
+        },
         clamp: match opts.method {
             Method::VrlClamped if opts.many_lights.clamp > 0.0 => opts.many_lights.clamp,
             Method::VrlClamped => many_lights::default_clamp(&ts.scene),

@@ -189,6 +189,34 @@ fn closest_in_cone(cone: &Cone, a: Vec3) -> Vec3 {
     (cone.axis * cone.cos + perp * cone.sin).normalize()
 }
 
+/// Angle (radians) over which a surface's f·cos changes appreciably: about 1/√n for a Phong
+/// lobe of exponent n (cosⁿα ≈ exp(−nα²/2)), a radian for the cosine of a diffuse surface.
+fn bsdf_scale(b: &Bsdf) -> f32 {
+    match *b {
+        Bsdf::Phong { specular, exponent, .. } if specular.max_element() > 0.0 => (exponent + 1.0).sqrt().recip(),
+        _ => 1.0,
+    }
+}
+
+/// The same for a Henyey–Greenstein lobe: its forward peak has a half-width of about
+/// (1 − |g|)/√|g| radians; (1 − |g|) is a little narrower, so the count below errs upwards.
+fn hg_scale(g: f32) -> f32 {
+    (1.0 - g.abs()).max(1e-4)
+}
+
+/// Directions for integrating over `cone` an integrand that varies on the angular scale
+/// `scale`: the share of `max` given by the cone's solid angle relative to the scale's, at
+/// least 1. Any count gives an unbiased estimate of the cone integral; a cone much narrower
+/// than the integrand's features sees a nearly constant integrand, so one direction has
+/// almost no variance there, while a VSL that fills a lobe gets all `max` directions. This is
+/// what keeps VSLs affordable: in most pairs the sphere is far away and its cone tiny.
+fn cone_directions(cone: &Cone, max: u32, scale: f32) -> u32 {
+    // Half-angle² ≈ 2 (1 − cos θmax) for small cones (exact enough to choose a count).
+    let ratio = 2.0 * cone.one_minus_cos / (scale * scale);
+    let n = (max as f32 * ratio).ceil();
+    if n >= max as f32 { max.max(1) } else { (n as u32).max(1) }
+}
+
 /// (1/(πR²)) ∫_cone g(ω') dω', with `n` directions of a lattice shifted by `shift`.
 fn integrate_cone(cone: &Cone, n: u32, shift: Vec2, mut g: impl FnMut(Vec3) -> Rgb) -> Rgb {
     let n = n.max(1);
@@ -238,9 +266,19 @@ fn vertex_angle(line: &LineAngles, i: usize, k: usize) -> f32 {
     line.theta0 + (line.theta1 - line.theta0) * f
 }
 
+/// Vertices for a PDF over an angle range `extent` of an integrand varying on the angular scale
+/// `scale`: four per scale unit (a lobe is then resolved by several vertices), at most
+/// `settings.pdf_vertices`. A segment that subtends a small angle, e.g. a far VRL, needs only
+/// a few: the PDF shape changes the variance, never the expected value.
 #[inline]
-fn vertex_count(settings: &VblSettings) -> usize {
-    (settings.pdf_vertices as usize).clamp(2, PIECEWISE_LINEAR_MAX_VERTICES)
+fn vertex_count(settings: &VblSettings, extent: f32, scale: f32) -> usize {
+    let max = (settings.pdf_vertices as usize).clamp(2, PIECEWISE_LINEAR_MAX_VERTICES);
+    let wanted = (4.0 * extent.abs() / scale).ceil() + 1.0;
+    if wanted < max as f32 {
+        (wanted as usize).max(2)
+    } else {
+        max
+    }
 }
 
 /// Samples the line parameter by a piecewise-linear density in the angle (`value(t)` gives the
@@ -250,10 +288,11 @@ fn sample_angular(
     t0: f32,
     t1: f32,
     settings: &VblSettings,
+    scale: f32,
     u: f32,
     mut value: impl FnMut(f32) -> f32,
 ) -> (f32, f32) {
-    let k = vertex_count(settings);
+    let k = vertex_count(settings, line.theta1 - line.theta0, scale);
     let mut values = [0.0f32; PIECEWISE_LINEAR_MAX_VERTICES];
     for (i, v) in values.iter_mut().enumerate().take(k) {
         *v = value(line.t(vertex_angle(line, i, k)).clamp(t0, t1));
@@ -417,7 +456,8 @@ pub fn vbl_to_surface(
     }
     let line = LineAngles::new(ov, dv, 0.0, len, p, r2.sqrt());
     let peak = rx.peak();
-    let (u, pdf) = sample_angular(&line, 0.0, len, settings, s.next_1d(), |t| {
+    let scale = bsdf_scale(&rx.bsdf).min(hg_scale(m.g));
+    let (u, pdf) = sample_angular(&line, 0.0, len, settings, scale, s.next_1d(), |t| {
         let y = ov + dv * t;
         match settings.pdf {
             AngularPdf::Vrl => {
@@ -441,7 +481,8 @@ pub fn vbl_to_surface(
     let Some(cone) = vsl_cone(p, y, r2, rx.n) else {
         return Rgb::ZERO;
     };
-    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| rx.f_cos(w) * phase(w));
+    let n = cone_directions(&cone, settings.directions, scale);
+    let l_vsl = integrate_cone(&cone, n, shift, |w| rx.f_cos(w) * phase(w));
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -472,21 +513,9 @@ pub fn vbl_to_media(
     if !(vrl.length > 0.0 && seg.length > 0.0) {
         return Rgb::ZERO;
     }
-    // Stage 1 (as the VRL paper): the VSL centre ∝ 1/dist(y(u), camera line)², an equiangular
-    // density in u since that squared distance is |B|² ((u − u0)² + h²); h floored at R, where
-    // the VSL stops resolving the distance.
-    let a = (ov - oc) - dc * (ov - oc).dot(dc);
-    let b = dv - dc * dv.dot(dc);
-    let bb = b.length_squared();
-    let (u, pdf_u) = if bb > 1e-12 {
-        let u0 = -a.dot(b) / bb;
-        let h = ((a.length_squared() - a.dot(b) * a.dot(b) / bb).max(0.0) / bb).sqrt();
-        let c = Vec3::new(u0, h.max(r * bb.sqrt().recip()), 0.0);
-        sampling::equiangular(Vec3::ZERO, Vec3::X, 0.0, vrl.length, c, s.next_1d())
-    } else {
-        // Parallel lines: every point is equally far; uniform.
-        (s.next_1d() * vrl.length, 1.0 / vrl.length)
-    };
+    // Stage 1 (as the VRL paper): the VSL centre ∝ 1/dist(y(u), camera line)², the distance
+    // floored at R, where the VSL stops resolving it.
+    let (u, pdf_u) = crate::vrl::sample_near_line(ov, dv, vrl.length, oc, dc, r, s.next_1d());
     if !(pdf_u > 0.0 && pdf_u.is_finite()) {
         return Rgb::ZERO;
     }
@@ -499,7 +528,8 @@ pub fn vbl_to_media(
     let peak = hg_peak_gather(mv.g, dv).or_else(|| hg_peak_gather(mc.g, -dc));
     // Stage 2: the camera point by a piecewise-linear PDF in the angle about y.
     let line = LineAngles::new(oc, dc, 0.0, seg.length, y, r);
-    let (t, pdf_t) = sample_angular(&line, 0.0, seg.length, settings, s.next_1d(), |t| {
+    let scale = hg_scale(mv.g).min(hg_scale(mc.g));
+    let (t, pdf_t) = sample_angular(&line, 0.0, seg.length, settings, scale, s.next_1d(), |t| {
         let x = oc + dc * t;
         let w = match settings.pdf {
             AngularPdf::Vrl => (y - x).normalize_or_zero(),
@@ -518,9 +548,8 @@ pub fn vbl_to_media(
     let Some(cone) = vsl_cone(x, y, r2, -dc) else {
         return Rgb::ZERO;
     };
-    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| {
-        Rgb::splat(phase_x(w) * phase_y(w))
-    });
+    let n = cone_directions(&cone, settings.directions, scale);
+    let l_vsl = integrate_cone(&cone, n, shift, |w| Rgb::splat(phase_x(w) * phase_y(w)));
     let sigma_y = mv.sigma_s * mv.density_at(y);
     let sigma_x = mc.sigma_s * mc.density_at(x);
     let t_vrl = media::transmittance(mv, ov, dv, u, s);
@@ -557,7 +586,8 @@ pub fn vsl_to_media(
     let hg = HenyeyGreenstein { g: m.g };
     let phase = |w: Vec3| hg.eval(-d, w);
     let line = LineAngles::new(o, d, 0.0, seg.length, q, r2.sqrt());
-    let (t, pdf) = sample_angular(&line, 0.0, seg.length, settings, s.next_1d(), |t| {
+    let scale = bsdf_scale(&light.bsdf).min(hg_scale(m.g));
+    let (t, pdf) = sample_angular(&line, 0.0, seg.length, settings, scale, s.next_1d(), |t| {
         let x = o + d * t;
         let w = match settings.pdf {
             AngularPdf::Vrl => (q - x).normalize_or_zero(),
@@ -576,7 +606,8 @@ pub fn vsl_to_media(
     let Some(cone) = vsl_cone(x, q, r2, -d) else {
         return Rgb::ZERO;
     };
-    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| light.f_cos(w) * phase(w));
+    let n = cone_directions(&cone, settings.directions, scale);
+    let l_vsl = integrate_cone(&cone, n, shift, |w| light.f_cos(w) * phase(w));
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -606,7 +637,12 @@ pub fn vsl_to_surface(
     let Some(cone) = vsl_cone(p, q, r2, rx.n) else {
         return Rgb::ZERO;
     };
-    let l_vsl = integrate_cone(&cone, settings.directions, shift, |w| rx.f_cos(w) * light.f_cos(w));
+    let n = cone_directions(
+        &cone,
+        settings.directions,
+        bsdf_scale(&rx.bsdf).min(bsdf_scale(&light.bsdf)),
+    );
+    let l_vsl = integrate_cone(&cone, n, shift, |w| rx.f_cos(w) * light.f_cos(w));
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
     }
