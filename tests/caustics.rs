@@ -15,10 +15,10 @@ use beamlight_trace::{
     caustics::{BeamMap, PhotonMap},
     components::Component,
     light_paths::{LightTracerSettings, trace_light_paths},
-    pt::{self, PathTracerSettings},
+    pt::PathTracerSettings,
 };
 use common::*;
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec3};
 use std::time::Instant;
 
 /// Adds the six faces of the box [lo, hi], front faces pointing outwards.
@@ -83,32 +83,6 @@ fn caustic_box(w: u32, h: u32, sigma_s: f32) -> Scene {
     s
 }
 
-/// Image means of the path tracer's components over `spp` samples per pixel.
-fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
-    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
-    let mut sum = [DVec3::ZERO; 7];
-    for pass in 0..spp {
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = Sampler::new(seed, pass, y * w + x);
-                let j = s.next_2d();
-                let film = Vec2::new((x as f32 + j.x) / w as f32, (y as f32 + j.y) / h as f32);
-                let d = ts.scene.camera.direction(film, w as f32 / h as f32);
-                pt::radiance_split(
-                    ts,
-                    &PathTracerSettings::default(),
-                    ts.scene.camera.position(),
-                    d,
-                    ts.camera_medium,
-                    &mut s,
-                    &mut |c, l| sum[c as usize] += l.as_dvec3(),
-                );
-            }
-        }
-    }
-    sum.map(|v| v / (spp as f64 * (w * h) as f64))
-}
-
 /// Image means of the two caustic components alone, from passes `passes` of camera rays and
 /// light paths gathered by the photon map and the beam map with the pass's radius.
 fn caustics_only(ts: &TraceScene, passes: std::ops::Range<u32>, settings: &ManyLightSettings) -> [DVec3; 2] {
@@ -119,7 +93,7 @@ fn caustics_only(ts: &TraceScene, passes: std::ops::Range<u32>, settings: &ManyL
     for pass in passes {
         let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, 1, pass);
         let lights = trace_light_paths(ts, &LightTracerSettings::default(), paths, 1, pass);
-        let r2 = pass_squared_radius(settings, pass);
+        let r2 = pass_squared_radius(settings.photon_radius, settings, pass);
         let photons = PhotonMap::build(&lights.caustic_photons, r2);
         let beams = BeamMap::build(&lights.photon_beams, r2);
         for sp in &gather.shading_points {
@@ -151,7 +125,7 @@ fn photon_mapping_and_photon_beams_match_the_path_tracers_caustics() {
     let ts = TraceScene::new(caustic_box(12, 12, 0.3));
     let settings = ManyLightSettings {
         light_paths_per_pass: 1024,
-        radius: 0.1,
+        photon_radius: 0.1,
         ..Default::default()
     };
     let (batches, passes, spp) = (8u32, 96u32, 1536u32);

@@ -4,76 +4,11 @@
 //! contributions classified by the same path decomposition, see `beamlight_trace::components`).
 mod common;
 use beamlight_render::{Budget, Method, RenderOptions, many_lights::ManyLightSettings, render};
-use beamlight_scene::{Rgb, Scene, rng::Sampler};
-use beamlight_trace::{
-    TraceScene,
-    components::Component,
-    pt::{self, PathTracerSettings},
-};
+use beamlight_scene::Rgb;
+use beamlight_trace::{TraceScene, components::Component, pt::PathTracerSettings};
 use common::*;
-use glam::{DVec3, Vec2, Vec3};
+use glam::DVec3;
 use std::time::Instant;
-
-fn fog_box(w: u32, h: u32, lumpy: bool) -> Scene {
-    let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.2, -0.3, -1.0), 70.0, w, h);
-    let wall = add_material(&mut s, lambert("wall", 0.6));
-    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
-    let light = add_material(&mut s, emitter("light", 10.0));
-    add_quad(
-        &mut s,
-        Vec3::new(-0.3, 0.99, -0.3),
-        Vec3::new(0.6, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 0.6),
-        light,
-    );
-    let mut m = homogeneous(Rgb::new(0.6, 0.4, 0.5), Rgb::splat(0.1), 0.3);
-    if lumpy {
-        // A smooth lump of density over the box (zero outside it), for delta/ratio tracking.
-        let res = glam::UVec3::splat(12);
-        let values = (0..res.x * res.y * res.z)
-            .map(|i| {
-                let c = glam::UVec3::new(i % 12, i / 12 % 12, i / 144).as_vec3() / 11.0 - 0.5;
-                1.5 * (-4.0 * c.length_squared()).exp()
-            })
-            .collect();
-        m.density = Some(beamlight_scene::medium::DensityGrid::new(
-            res,
-            Vec3::splat(-1.0),
-            Vec3::splat(1.0),
-            values,
-        ));
-    }
-    s.media.push(m);
-    s.global_medium = Some(0);
-    s
-}
-
-/// Image means of the path tracer's components.
-fn pt_components(ts: &TraceScene, spp: u32) -> [DVec3; 7] {
-    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
-    let mut sum = [DVec3::ZERO; 7];
-    for pass in 0..spp {
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = Sampler::new(11, pass, y * w + x);
-                let j = s.next_2d();
-                let film = Vec2::new((x as f32 + j.x) / w as f32, (y as f32 + j.y) / h as f32);
-                let d = ts.scene.camera.direction(film, w as f32 / h as f32);
-                let settings = PathTracerSettings::default();
-                pt::radiance_split(
-                    ts,
-                    &settings,
-                    ts.scene.camera.position(),
-                    d,
-                    ts.camera_medium,
-                    &mut s,
-                    &mut |c, l| sum[c as usize] += l.as_dvec3(),
-                );
-            }
-        }
-    }
-    sum.map(|v| v / (spp as f64 * (w * h) as f64))
-}
 
 #[test]
 fn unclamped_vpls_and_vrls_match_the_path_tracer_per_component() {
@@ -88,7 +23,7 @@ fn the_same_holds_in_a_heterogeneous_medium() {
 fn components_match(lumpy: bool) {
     let (w, h) = (4u32, 4u32);
     let ts = TraceScene::new(fog_box(w, h, lumpy));
-    let reference = pt_components(&ts, 16384);
+    let reference = pt_components(&ts, 16384, 11);
 
     // The orchestrator's `vrl` passes, with every component kept apart.
     let opts = RenderOptions {

@@ -1,6 +1,7 @@
 //! Scenes built in code for the integration tests, and small render helpers.
 #![allow(dead_code)]
 use beamlight_render::{Budget, Film, Method, RenderOptions, render};
+use beamlight_scene::rng::Sampler;
 use beamlight_scene::{
     Rgb, Scene,
     bsdf::{Bsdf, Material},
@@ -8,8 +9,11 @@ use beamlight_scene::{
     medium::Medium,
     scene::{RenderSettings, Triangle},
 };
-use beamlight_trace::{TraceScene, pt::PathTracerSettings};
-use glam::{Mat4, Vec3};
+use beamlight_trace::{
+    TraceScene,
+    pt::{self, PathTracerSettings},
+};
+use glam::{DVec3, Mat4, Vec2, Vec3};
 use std::time::Instant;
 
 pub fn material(name: &str, bsdf: Option<Bsdf>, emission: Rgb, double_sided: bool) -> Material {
@@ -291,4 +295,66 @@ pub fn glass_furnace(size: u32, sphere_segments: u32, mirror: bool) -> beamlight
         );
     }
     s
+}
+
+/// A fog box of Lambert walls (albedo 0.6) lit by a ceiling quad, camera inside; with `lumpy`
+/// the fog's density is a smooth lump (a density grid) instead of uniform.
+pub fn fog_box(w: u32, h: u32, lumpy: bool) -> Scene {
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.2, -0.3, -1.0), 70.0, w, h);
+    let wall = add_material(&mut s, lambert("wall", 0.6));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    let light = add_material(&mut s, emitter("light", 10.0));
+    add_quad(
+        &mut s,
+        Vec3::new(-0.3, 0.99, -0.3),
+        Vec3::new(0.6, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.6),
+        light,
+    );
+    let mut m = homogeneous(Rgb::new(0.6, 0.4, 0.5), Rgb::splat(0.1), 0.3);
+    if lumpy {
+        // A smooth lump of density over the box (zero outside it), for delta/ratio tracking.
+        let res = glam::UVec3::splat(12);
+        let values = (0..res.x * res.y * res.z)
+            .map(|i| {
+                let c = glam::UVec3::new(i % 12, i / 12 % 12, i / 144).as_vec3() / 11.0 - 0.5;
+                1.5 * (-4.0 * c.length_squared()).exp()
+            })
+            .collect();
+        m.density = Some(beamlight_scene::medium::DensityGrid::new(
+            res,
+            Vec3::splat(-1.0),
+            Vec3::splat(1.0),
+            values,
+        ));
+    }
+    s.media.push(m);
+    s.global_medium = Some(0);
+    s
+}
+
+/// Image means of the path tracer's components over `spp` samples per pixel.
+pub fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    let mut sum = [DVec3::ZERO; 7];
+    for pass in 0..spp {
+        for y in 0..h {
+            for x in 0..w {
+                let mut s = Sampler::new(seed, pass, y * w + x);
+                let j = s.next_2d();
+                let film = Vec2::new((x as f32 + j.x) / w as f32, (y as f32 + j.y) / h as f32);
+                let d = ts.scene.camera.direction(film, w as f32 / h as f32);
+                pt::radiance_split(
+                    ts,
+                    &PathTracerSettings::default(),
+                    ts.scene.camera.position(),
+                    d,
+                    ts.camera_medium,
+                    &mut s,
+                    &mut |c, l| sum[c as usize] += l.as_dvec3(),
+                );
+            }
+        }
+    }
+    sum.map(|v| v / (spp as f64 * (w * h) as f64))
 }

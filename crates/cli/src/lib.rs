@@ -101,10 +101,14 @@ struct RenderArgs {
     /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
     #[arg(long)]
     clamp_distance: Option<f32>,
-    /// Initial radius R0 of the progressive estimators (virtual beam and spherical lights,
-    /// photon mapping and photon beams), in scene units (default: 2.5 % of the scene's diagonal).
+    /// `vbl`: initial radius R0 of the virtual beam and spherical lights, in scene units
+    /// (default: 10 % of the scene's diagonal).
     #[arg(long)]
     radius: Option<f32>,
+    /// Initial radius of the caustics' photon mapping and photon beams, in scene units
+    /// (default: 2.5 % of the scene's diagonal).
+    #[arg(long)]
+    photon_radius: Option<f32>,
     /// Also write the image (EXR and preview) every SECONDS while rendering, atomically, so
     /// an interrupted render leaves its latest state readable.
     #[arg(long, value_name = "SECONDS")]
@@ -156,10 +160,12 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     {
         bail!("--clamp-distance must be a finite distance >= 0, got {c}");
     }
-    if let Some(r) = args.radius
-        && !(r.is_finite() && r > 0.0)
-    {
-        bail!("--radius must be a finite distance > 0, got {r}");
+    for (flag, value) in [("--radius", args.radius), ("--photon-radius", args.photon_radius)] {
+        if let Some(r) = value
+            && !(r.is_finite() && r > 0.0)
+        {
+            bail!("{flag} must be a finite distance > 0, got {r}");
+        }
     }
     if let Some(t) = args.write_every
         && !(t.is_finite() && t > 0.0)
@@ -232,6 +238,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             light_paths_per_pass: args.light_paths,
             clamp: args.clamp_distance.unwrap_or(0.0),
             radius: args.radius.unwrap_or(0.0),
+            photon_radius: args.photon_radius.unwrap_or(0.0),
             alpha: args.alpha,
             vbl: VblSettings {
                 directions: args.vsl_directions,
@@ -245,7 +252,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     let outputs = Outputs {
         args: &args,
         method,
-        backend: &backend.to_string(),
+        backend,
     };
     let mut last_write = Instant::now();
     let mut write_error = None;

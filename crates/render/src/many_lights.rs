@@ -42,9 +42,12 @@ pub struct ManyLightSettings {
     /// Minimum distance in the inverse-square falloff of VRLs/VPLs (`vrl-clamped`); 0 for
     /// unclamped `vrl`.
     pub clamp: f32,
-    /// Initial radius R0 of the progressive estimators (VBLs and VSLs, photon mapping, photon
-    /// beams) in scene units; 0 picks [`default_radius`].
+    /// Initial radius R0 of the virtual beam and spherical lights (`vbl`), in scene units; 0
+    /// picks [`default_radius`].
     pub radius: f32,
+    /// Initial radius R0 of the caustics' photon mapping and photon beams; 0 picks
+    /// [`default_photon_radius`].
+    pub photon_radius: f32,
     /// The radius reduction's α of eq. 11, in (0, 1): smaller shrinks faster.
     pub alpha: f32,
 }
@@ -57,6 +60,7 @@ impl Default for ManyLightSettings {
             light_paths_per_pass: 64,
             clamp: 0.0,
             radius: 0.0,
+            photon_radius: 0.0,
             alpha: 0.7,
         }
     }
@@ -70,23 +74,34 @@ pub fn default_clamp(scene: &beamlight_scene::Scene) -> f32 {
     if diagonal.is_finite() { 0.05 * diagonal } else { 0.0 }
 }
 
-/// The default initial radius R0: 2.5 % of the diagonal of the scene's bounds. Eq. 11 makes
-/// R0 the radius of a pass with a single light path; with M paths per pass the first pass
-/// already uses about R0 · M^((α−1)/2) (0.56 R0 for M = 64, α = 0.7).
+/// The default initial VBL/VSL radius R0: 10 % of the diagonal of the scene's bounds. Eq. 11
+/// makes R0 the radius of a pass with a single light path; with M paths per pass the first
+/// pass already uses about R0 · M^((α−1)/2) (0.56 R0 for M = 64, α = 0.7), and 1000 passes
+/// later 0.14 R0. The paper leaves R0 to the user; a sphere must be wide compared with the
+/// distances at which a glossy surface or a forward-scattering medium would make a virtual
+/// light's contribution spike, which is what a tenth of the scene is meant to be (measured
+/// in `tests/vbl_progressive.rs`: 2.5 % left such spikes in a glossy-floored fog box).
 pub fn default_radius(scene: &beamlight_scene::Scene) -> f32 {
-    let (lo, hi) = scene.bounds();
-    let diagonal = (hi - lo).length();
-    if diagonal.is_finite() && diagonal > 0.0 {
-        0.025 * diagonal
-    } else {
-        1.0
-    }
+    0.1 * diagonal(scene)
 }
 
-/// The squared radius of pass `pass` (0-based) for these settings, from eq. 11 in log space.
-pub fn pass_squared_radius(settings: &ManyLightSettings, pass: u32) -> f32 {
+/// The default initial photon-mapping radius: 2.5 % of the scene's diagonal (caustics are
+/// sharp, and photons are density-estimated, not connected: no singularity to spread).
+pub fn default_photon_radius(scene: &beamlight_scene::Scene) -> f32 {
+    0.025 * diagonal(scene)
+}
+
+fn diagonal(scene: &beamlight_scene::Scene) -> f32 {
+    let (lo, hi) = scene.bounds();
+    let d = (hi - lo).length();
+    if d.is_finite() && d > 0.0 { d } else { 1.0 }
+}
+
+/// The squared radius of pass `pass` (0-based) for initial radius `r0` and these settings'
+/// light paths per pass (M) and α, from eq. 11 in log space.
+pub fn pass_squared_radius(r0: f32, settings: &ManyLightSettings, pass: u32) -> f32 {
     squared_radius(
-        settings.radius as f64,
+        r0 as f64,
         settings.alpha as f64,
         settings.light_paths_per_pass.max(1) as u64,
         pass as u64 + 1,
@@ -114,9 +129,10 @@ pub fn many_light_pass(
         pass,
     );
     let m = lights.paths.max(1) as f32;
-    let r2 = pass_squared_radius(settings, pass);
-    let photons = PhotonMap::build(&lights.caustic_photons, r2);
-    let beams = BeamMap::build(&lights.photon_beams, r2);
+    let r2 = pass_squared_radius(settings.radius, settings, pass);
+    let photon_r2 = pass_squared_radius(settings.photon_radius, settings, pass);
+    let photons = PhotonMap::build(&lights.caustic_photons, photon_r2);
+    let beams = BeamMap::build(&lights.photon_beams, photon_r2);
     for buffer in out.iter_mut() {
         buffer.iter_mut().for_each(|v| *v = Rgb::ZERO);
     }

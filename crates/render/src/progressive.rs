@@ -107,6 +107,11 @@ pub fn render(
         } else {
             many_lights::default_radius(&ts.scene)
         },
+        photon_radius: if opts.many_lights.photon_radius > 0.0 {
+            opts.many_lights.photon_radius
+        } else {
+            many_lights::default_photon_radius(&ts.scene)
+        },
         ..opts.many_lights
     };
     let (w, h) = (opts.width, opts.height);

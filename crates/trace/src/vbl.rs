@@ -217,16 +217,130 @@ fn cone_directions(cone: &Cone, max: u32, scale: f32) -> u32 {
     if n >= max as f32 { max.max(1) } else { (n as u32).max(1) }
 }
 
-/// (1/(πR²)) ∫_cone g(ω') dω', with `n` directions of a lattice shifted by `shift`.
-fn integrate_cone(cone: &Cone, n: u32, shift: Vec2, mut g: impl FnMut(Vec3) -> Rgb) -> Rgb {
-    let n = n.max(1);
-    let frame = Frame::from_normal(cone.axis);
-    let mut sum = Rgb::ZERO;
-    for k in 0..n {
-        let local = sampling::uniform_cone_1mc(sampling::shifted_lattice(k, n, shift), cone.one_minus_cos);
-        sum += g(frame.to_world(local).normalize());
+/// The integrand's sharpest factor as a distribution over gather directions ω', for drawing
+/// some of a wide cone's directions from it (see [`integrate_cone`]).
+#[derive(Clone, Copy, Debug)]
+enum Lobe {
+    /// A surface's f·cos about the fixed direction `fixed` (local to `frame`), seen over
+    /// ω' = `sign` · (world direction at the surface): +1 at a receiver (ω' is its incident
+    /// direction), −1 at a VPL (the light leaves it along −ω'). Lambert and modified Phong
+    /// are symmetric, so sampling about either argument gives the same distribution.
+    Surface {
+        bsdf: Bsdf,
+        frame: Frame,
+        fixed: Vec3,
+        sign: f32,
+    },
+    /// A Henyey–Greenstein lobe hg.eval(`a`, `sign`·ω').
+    Phase { hg: HenyeyGreenstein, a: Vec3, sign: f32 },
+}
+
+impl Lobe {
+    fn sample(&self, u: Vec2, u_pick: f32) -> Option<Vec3> {
+        match *self {
+            Lobe::Surface {
+                bsdf,
+                frame,
+                fixed,
+                sign,
+            } => {
+                let bs = bsdf.sample(fixed, u, u_pick)?;
+                (!bs.is_delta).then(|| frame.to_world(bs.wi) * sign)
+            }
+            Lobe::Phase { hg, a, sign } => Some(hg.sample(a, u).wi * sign),
+        }
     }
-    sum * (cone.weight / n as f32)
+
+    fn pdf(&self, w: Vec3) -> f32 {
+        match *self {
+            Lobe::Surface {
+                bsdf,
+                frame,
+                fixed,
+                sign,
+            } => bsdf.pdf(fixed, frame.to_local(w * sign)),
+            Lobe::Phase { hg, a, sign } => hg.pdf(a, w * sign),
+        }
+    }
+}
+
+/// The HG lobe hg.eval(a, sign·ω') over gather directions, with its angular scale.
+fn phase_lobe(hg: HenyeyGreenstein, a: Vec3, sign: f32) -> (Lobe, f32) {
+    (Lobe::Phase { hg, a, sign }, hg_scale(hg.g))
+}
+
+/// Of two lobes, the one with the smaller angular scale.
+fn sharper(a: (Lobe, f32), b: (Lobe, f32)) -> (Lobe, f32) {
+    if b.1 < a.1 { b } else { a }
+}
+
+/// Random numbers for [`integrate_cone`]: the shifts of the uniform and the lobe lattices and
+/// the lobe-pick offset (five numbers, drawn whether or not they are used, so that a call
+/// always consumes the same count).
+#[derive(Clone, Copy, Debug)]
+struct ConeRandom {
+    uniform: Vec2,
+    lobe: Vec2,
+    pick: f32,
+}
+
+impl ConeRandom {
+    fn draw(s: &mut Sampler) -> Self {
+        Self {
+            uniform: s.next_2d(),
+            lobe: s.next_2d(),
+            pick: s.next_1d(),
+        }
+    }
+}
+
+/// (1/(πR²)) ∫_cone g(ω') dω', the VSL integral of eq. 9, estimated with directions uniform in
+/// the cone (a shifted lattice) and, when the cone is wide compared with `lobe`'s angular
+/// `scale`, half of them drawn from `lobe` instead, combined by the balance heuristic
+/// (directions from the lobe that fall outside the cone count zero). Uniform directions alone
+/// would find a glossy lobe inside a wide cone with probability its solid angle over the
+/// cone's, which makes the rare hits the bright outliers of a pixel; narrow cones see nearly
+/// constant integrands and get few uniform directions ([`cone_directions`]).
+fn integrate_cone(
+    cone: &Cone,
+    max: u32,
+    lobe: Option<(Lobe, f32)>,
+    rnd: ConeRandom,
+    mut g: impl FnMut(Vec3) -> Rgb,
+) -> Rgb {
+    let frame = Frame::from_normal(cone.axis);
+    let omega = std::f32::consts::TAU * cone.one_minus_cos;
+    let wide = lobe.filter(|&(_, scale)| 2.0 * cone.one_minus_cos >= scale * scale && omega > 0.0 && max >= 2);
+    let Some((lobe, _)) = wide else {
+        let n = cone_directions(cone, max, lobe.map_or(1.0, |(_, scale)| scale));
+        let mut sum = Rgb::ZERO;
+        for k in 0..n {
+            let local = sampling::uniform_cone_1mc(sampling::shifted_lattice(k, n, rnd.uniform), cone.one_minus_cos);
+            sum += g(frame.to_world(local).normalize());
+        }
+        return sum * (cone.weight / n as f32);
+    };
+    let (na, nb) = (max - max / 2, max / 2);
+    // Balance heuristic over all na + nb directions: each counts g / (na p_uniform + nb p_lobe).
+    let p_uniform = omega.recip();
+    let denominator = |w: Vec3| na as f32 * p_uniform + nb as f32 * lobe.pdf(w);
+    let mut sum = Rgb::ZERO;
+    for k in 0..na {
+        let local = sampling::uniform_cone_1mc(sampling::shifted_lattice(k, na, rnd.uniform), cone.one_minus_cos);
+        let w = frame.to_world(local).normalize();
+        sum += g(w) / denominator(w);
+    }
+    for k in 0..nb {
+        let pick = ((k as f32 + 0.5) / nb as f32 + rnd.pick).fract();
+        let Some(w) = lobe.sample(sampling::shifted_lattice(k, nb, rnd.lobe), pick) else {
+            continue;
+        };
+        if w.dot(cone.axis) >= cone.cos {
+            sum += g(w) / denominator(w);
+        }
+    }
+    // Ω / (πR²) over Ω: the kernel 1/(πR²).
+    finite_or_zero(sum * (cone.weight / omega))
 }
 
 /// A squared radius fit for use: NaN or negative → 0 (the VRL/VPL limit).
@@ -376,6 +490,17 @@ impl Receiver {
     fn peak(&self) -> Vec3 {
         surface_peak(&self.bsdf, self.n, self.frame.to_world(self.wo))
     }
+
+    /// f·cos over gather directions, with its angular scale.
+    fn lobe(&self) -> (Lobe, f32) {
+        let lobe = Lobe::Surface {
+            bsdf: self.bsdf,
+            frame: self.frame,
+            fixed: self.wo,
+            sign: 1.0,
+        };
+        (lobe, bsdf_scale(&self.bsdf))
+    }
 }
 
 /// A VPL's scattering function as a function of the gather direction ω' at the receiver (the
@@ -407,6 +532,17 @@ impl SurfaceLight {
     fn f_cos(&self, gather: Vec3) -> Rgb {
         let wo = self.frame.to_local(-gather);
         self.bsdf.eval(wo, self.wi) * wo.z.abs()
+    }
+
+    /// f·cos over gather directions (the light leaves along −ω'), with its angular scale.
+    fn lobe(&self) -> (Lobe, f32) {
+        let lobe = Lobe::Surface {
+            bsdf: self.bsdf,
+            frame: self.frame,
+            fixed: self.wi,
+            sign: -1.0,
+        };
+        (lobe, bsdf_scale(&self.bsdf))
     }
 
     /// ω'_max for this VPL seen through `cone`: the lobe's peak is an outgoing direction at the
@@ -473,7 +609,7 @@ pub fn vbl_to_surface(
             },
         }
     });
-    let shift = s.next_2d();
+    let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
         return Rgb::ZERO;
     }
@@ -481,8 +617,8 @@ pub fn vbl_to_surface(
     let Some(cone) = vsl_cone(p, y, r2, rx.n) else {
         return Rgb::ZERO;
     };
-    let n = cone_directions(&cone, settings.directions, scale);
-    let l_vsl = integrate_cone(&cone, n, shift, |w| rx.f_cos(w) * phase(w));
+    let lobe = sharper(rx.lobe(), phase_lobe(hg, -dv, -1.0));
+    let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| rx.f_cos(w) * phase(w));
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -540,7 +676,7 @@ pub fn vbl_to_media(
         };
         phase_x(w) * phase_y(w)
     });
-    let shift = s.next_2d();
+    let rnd = ConeRandom::draw(s);
     if !(pdf_t > 0.0) {
         return Rgb::ZERO;
     }
@@ -548,8 +684,10 @@ pub fn vbl_to_media(
     let Some(cone) = vsl_cone(x, y, r2, -dc) else {
         return Rgb::ZERO;
     };
-    let n = cone_directions(&cone, settings.directions, scale);
-    let l_vsl = integrate_cone(&cone, n, shift, |w| Rgb::splat(phase_x(w) * phase_y(w)));
+    let lobe = sharper(phase_lobe(hv, -dv, -1.0), phase_lobe(hc, -dc, 1.0));
+    let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
+        Rgb::splat(phase_x(w) * phase_y(w))
+    });
     let sigma_y = mv.sigma_s * mv.density_at(y);
     let sigma_x = mc.sigma_s * mc.density_at(x);
     let t_vrl = media::transmittance(mv, ov, dv, u, s);
@@ -598,7 +736,7 @@ pub fn vsl_to_media(
         };
         luminance_mean(light.f_cos(w)) * phase(w)
     });
-    let shift = s.next_2d();
+    let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
         return Rgb::ZERO;
     }
@@ -606,8 +744,10 @@ pub fn vsl_to_media(
     let Some(cone) = vsl_cone(x, q, r2, -d) else {
         return Rgb::ZERO;
     };
-    let n = cone_directions(&cone, settings.directions, scale);
-    let l_vsl = integrate_cone(&cone, n, shift, |w| light.f_cos(w) * phase(w));
+    let lobe = sharper(light.lobe(), phase_lobe(hg, -d, 1.0));
+    let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
+        light.f_cos(w) * phase(w)
+    });
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -633,16 +773,14 @@ pub fn vsl_to_surface(
     let (Some(rx), Some(light)) = (Receiver::new(ts, sp), SurfaceLight::new(ts, vpl)) else {
         return Rgb::ZERO;
     };
-    let shift = s.next_2d();
+    let rnd = ConeRandom::draw(s);
     let Some(cone) = vsl_cone(p, q, r2, rx.n) else {
         return Rgb::ZERO;
     };
-    let n = cone_directions(
-        &cone,
-        settings.directions,
-        bsdf_scale(&rx.bsdf).min(bsdf_scale(&light.bsdf)),
-    );
-    let l_vsl = integrate_cone(&cone, n, shift, |w| rx.f_cos(w) * light.f_cos(w));
+    let lobe = sharper(rx.lobe(), light.lobe());
+    let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
+        rx.f_cos(w) * light.f_cos(w)
+    });
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -673,6 +811,77 @@ mod tests {
         let c = vsl_cone(Vec3::ONE, Vec3::ONE, 0.25, Vec3::Z).unwrap();
         assert_eq!(c.axis, Vec3::Z);
         assert!(vsl_cone(Vec3::ONE, Vec3::ONE, 0.0, Vec3::Z).is_none());
+    }
+
+    /// The cone integral with half its directions from a lobe (balance heuristic) has the same
+    /// mean as with uniform directions only, and less variance when the lobe is narrow: for
+    /// a glossy receiver, a Phong VPL and an HG lobe, in a wide cone and inside the sphere.
+    #[test]
+    fn lobe_directions_keep_the_cone_integral_and_cut_its_variance() {
+        let phong = Bsdf::Phong {
+            diffuse: Rgb::splat(0.1),
+            specular: Rgb::splat(0.8),
+            exponent: 200.0,
+        };
+        let n = Vec3::new(0.1, 1.0, -0.2).normalize();
+        let frame = Frame::from_normal(n);
+        let wo = frame.to_local(Vec3::new(-0.5, 0.6, 0.3).normalize());
+        // The lobe peaks at the mirror direction of wo; put the sphere near it.
+        let mirror = frame.to_world(Vec3::new(-wo.x, -wo.y, wo.z));
+        let receiver = Lobe::Surface {
+            bsdf: phong,
+            frame,
+            fixed: wo,
+            sign: 1.0,
+        };
+        let vpl = Lobe::Surface {
+            bsdf: phong,
+            frame,
+            fixed: wo,
+            sign: -1.0,
+        };
+        let hg = Lobe::Phase {
+            hg: HenyeyGreenstein { g: 0.95 },
+            a: -mirror,
+            sign: 1.0,
+        };
+        let cases = [
+            ("glossy receiver", receiver, mirror, 0.3f32),
+            ("glossy VPL", vpl, -mirror, 0.3),
+            ("HG g = 0.95", hg, mirror, 0.3),
+            ("glossy receiver, inside", receiver, mirror, 2.0),
+        ];
+        for (name, lobe, towards, r) in cases {
+            let centre = (towards + Vec3::new(0.05, -0.03, 0.04)).normalize();
+            let cone = vsl_cone(Vec3::ZERO, centre, r * r, n).unwrap();
+            let g = |w: Vec3| match lobe {
+                Lobe::Surface {
+                    bsdf,
+                    frame,
+                    fixed,
+                    sign,
+                } => {
+                    let l = frame.to_local(w * sign);
+                    bsdf.eval(fixed, l) * l.z.abs()
+                }
+                Lobe::Phase { hg, a, sign } => Rgb::splat(hg.eval(a, w * sign)),
+            };
+            let stats = |with_lobe: bool| {
+                let (mut sum, mut sum2, k) = (0.0f64, 0.0f64, 20_000);
+                for i in 0..k {
+                    let rnd = ConeRandom::draw(&mut Sampler::new(7, with_lobe as u32, i));
+                    let v = integrate_cone(&cone, 16, with_lobe.then_some((lobe, 0.01)), rnd, g).x as f64;
+                    sum += v;
+                    sum2 += v * v;
+                }
+                let mean = sum / k as f64;
+                (mean, ((sum2 / k as f64 - mean * mean) / k as f64).sqrt())
+            };
+            let ((a, ea), (b, eb)) = (stats(false), stats(true));
+            eprintln!("{name}: uniform {a:.5} ± {ea:.5}, with lobe {b:.5} ± {eb:.5}");
+            assert!((a - b).abs() < 4.5 * (ea * ea + eb * eb).sqrt(), "{name}: {a} vs {b}");
+            assert!(eb < 0.5 * ea, "{name}: the lobe directions must help here");
+        }
     }
 
     #[test]
