@@ -37,7 +37,13 @@ fn render(scene: &Path, out: &Path, extra: &[&str]) -> Output {
 #[test]
 fn bundled_scenes_render_finite_images_with_metadata() {
     let dir = tempfile::tempdir().unwrap();
-    for name in ["cornell", "cornell_fog", "cornell_smoke", "furnace"] {
+    for name in [
+        "cornell",
+        "cornell_fog",
+        "cornell_glossy_fog",
+        "cornell_smoke",
+        "furnace",
+    ] {
         let scene = root().join(format!("assets/scenes/{name}.toml"));
         let out = dir.path().join(format!("{name}.exr"));
         let png = dir.path().join(format!("{name}.png"));

@@ -117,6 +117,10 @@ struct RenderArgs {
     /// the paper uses up to 100).
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1024))]
     vsl_directions: u32,
+    /// `vbl`: most vertices of the piecewise-linear angular PDFs (fewer for segments that
+    /// subtend small angles).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=64))]
+    pdf_vertices: u32,
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
     alpha: f32,
@@ -242,6 +246,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             alpha: args.alpha,
             vbl: VblSettings {
                 directions: args.vsl_directions,
+                pdf_vertices: args.pdf_vertices,
                 ..Default::default()
             },
             // The method decides between rays and beams.

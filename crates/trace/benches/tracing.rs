@@ -7,7 +7,9 @@ use beamlight_trace::{
     bvh::Bvh,
     camera_paths::{CameraPathSettings, GatherSet, trace_camera_paths},
     light_paths::{LightSet, LightTracerSettings, trace_light_paths},
-    pt, vpl, vrl,
+    pt,
+    vbl::{self, VblSettings},
+    vpl, vrl,
 };
 use divan::{Bencher, counter::ItemsCount};
 use glam::Vec3;
@@ -178,4 +180,53 @@ fn vpl_evaluations_fog_box(b: Bencher) {
         }
         sum
     });
+}
+
+/// VBL/VSL evaluations per component on the same gather data (items: gather point × light
+/// pairs), one thread, with a mid-render radius (the 100th pass of R0 = 10 % of the diagonal,
+/// 64 paths per pass: R ≈ 0.087).
+fn vbl_bench(b: Bencher, component: &str) {
+    let ts = fog_box();
+    let (gather, lights) = gather_fixture();
+    let settings = VblSettings::default();
+    let r2 = 0.087f32 * 0.087;
+    let (points, segments) = (&gather.shading_points, &gather.media_segments);
+    let pairs = match component {
+        "Lsm" => points.len() * lights.vrls.len(),
+        "Lmm" => segments.len() * lights.vrls.len(),
+        "Lss" => points.len() * lights.vpls.len(),
+        _ => segments.len() * lights.vpls.len(),
+    };
+    b.counter(ItemsCount::new(pairs)).bench_local(|| {
+        let mut s = Sampler::new(1, 0, 0);
+        let mut sum = Rgb::ZERO;
+        match component {
+            "Lsm" => lights.vrls.iter().for_each(|v| {
+                points
+                    .iter()
+                    .for_each(|p| sum += vbl::vbl_to_surface(ts, p, v, r2, &settings, &mut s))
+            }),
+            "Lmm" => lights.vrls.iter().for_each(|v| {
+                segments
+                    .iter()
+                    .for_each(|g| sum += vbl::vbl_to_media(ts, g, v, r2, &settings, &mut s))
+            }),
+            "Lss" => lights.vpls.iter().for_each(|v| {
+                points
+                    .iter()
+                    .for_each(|p| sum += vbl::vsl_to_surface(ts, p, v, r2, &settings, &mut s))
+            }),
+            _ => lights.vpls.iter().for_each(|v| {
+                segments
+                    .iter()
+                    .for_each(|g| sum += vbl::vsl_to_media(ts, g, v, r2, &settings, &mut s))
+            }),
+        }
+        sum
+    });
+}
+
+#[divan::bench(sample_count = 3, args = ["Lsm", "Lmm", "Lms", "Lss"])]
+fn vbl_evaluations_fog_box(b: Bencher, component: &str) {
+    vbl_bench(b, component);
 }
