@@ -221,16 +221,8 @@ fn cone_directions(cone: &Cone, max: u32, scale: f32) -> u32 {
 /// some of a wide cone's directions from it (see [`integrate_cone`]).
 #[derive(Clone, Copy, Debug)]
 enum Lobe {
-    /// A surface's f·cos about the fixed direction `fixed` (local to `frame`), seen over
-    /// ω' = `sign` · (world direction at the surface): +1 at a receiver (ω' is its incident
-    /// direction), −1 at a VPL (the light leaves it along −ω'). Lambert and modified Phong
-    /// are symmetric, so sampling about either argument gives the same distribution.
-    Surface {
-        bsdf: Bsdf,
-        frame: Frame,
-        fixed: Vec3,
-        sign: f32,
-    },
+    /// A surface's f·cos over gather directions (see [`Surface`]).
+    Surface(Surface),
     /// A Henyey–Greenstein lobe hg.eval(`a`, `sign`·ω').
     Phase { hg: HenyeyGreenstein, a: Vec3, sign: f32 },
 }
@@ -238,14 +230,9 @@ enum Lobe {
 impl Lobe {
     fn sample(&self, u: Vec2, u_pick: f32) -> Option<Vec3> {
         match *self {
-            Lobe::Surface {
-                bsdf,
-                frame,
-                fixed,
-                sign,
-            } => {
-                let bs = bsdf.sample(fixed, u, u_pick)?;
-                (!bs.is_delta).then(|| frame.to_world(bs.wi) * sign)
+            Lobe::Surface(sf) => {
+                let bs = sf.bsdf.sample(sf.fixed, u, u_pick)?;
+                (!bs.is_delta).then(|| sf.frame.to_world(bs.wi) * sf.sign)
             }
             Lobe::Phase { hg, a, sign } => Some(hg.sample(a, u).wi * sign),
         }
@@ -253,12 +240,7 @@ impl Lobe {
 
     fn pdf(&self, w: Vec3) -> f32 {
         match *self {
-            Lobe::Surface {
-                bsdf,
-                frame,
-                fixed,
-                sign,
-            } => bsdf.pdf(fixed, frame.to_local(w * sign)),
+            Lobe::Surface(sf) => sf.bsdf.pdf(sf.fixed, sf.frame.to_local(w * sf.sign)),
             Lobe::Phase { hg, a, sign } => hg.pdf(a, w * sign),
         }
     }
@@ -456,100 +438,67 @@ fn connect(ts: &TraceScene, origin: Vec3, target: LightSample, medium: Option<u3
     ts.shadow_transmittance(origin, &target, medium, s)
 }
 
-/// The scattering function at a camera shading point as a function of the gather direction
-/// (world space, towards the light), with the cosine.
-struct Receiver {
+/// A diffuse or glossy surface's f·cos as a function of the gather direction ω': at a camera
+/// shading point ([`Surface::receiver`]) ω' is the incident direction and the fixed one is
+/// towards the camera; at a VPL ([`Surface::light`]) the light leaves along −ω' and arrived
+/// from the fixed direction. Lambert and modified Phong are reciprocal, so one evaluation
+/// f(fixed, sign·ω') serves both, and sampling the BSDF about `fixed` samples either.
+#[derive(Clone, Copy, Debug)]
+struct Surface {
     bsdf: Bsdf,
     frame: Frame,
-    wo: Vec3,
+    /// The fixed direction, local to `frame`.
+    fixed: Vec3,
     n: Vec3,
+    /// +1 at a receiver, −1 at a VPL: the surface's direction is `sign`·ω'.
+    sign: f32,
+    /// The gather direction where f·cos peaks (the lobe's axis), for ω'_max.
+    peak: Vec3,
 }
 
-impl Receiver {
-    fn new(ts: &TraceScene, sp: &ShadingPoint) -> Option<Self> {
-        let bsdf = ts.scene.bsdf_at(sp.material, Some(Vec2::from(sp.uv)))?;
+impl Surface {
+    fn new(ts: &TraceScene, material: u32, uv: Vec2, n: Vec3, fixed: Vec3, sign: f32) -> Option<Self> {
+        let bsdf = ts.scene.bsdf_at(material, Some(uv))?;
         if bsdf.is_delta() {
             return None;
         }
-        let n = Vec3::from(sp.normal);
         let frame = Frame::from_normal(n);
         Some(Self {
             bsdf,
             frame,
-            wo: frame.to_local(Vec3::from(sp.wo)),
+            fixed: frame.to_local(fixed),
             n,
+            sign,
+            peak: surface_peak(&bsdf, n, fixed) * sign,
         })
+    }
+
+    fn receiver(ts: &TraceScene, sp: &ShadingPoint) -> Option<Self> {
+        let n = Vec3::from(sp.normal);
+        Self::new(ts, sp.material, Vec2::from(sp.uv), n, Vec3::from(sp.wo), 1.0)
+    }
+
+    fn light(ts: &TraceScene, vpl: &SurfaceVertex) -> Option<Self> {
+        let (n, uv) = (Vec3::from(vpl.normal), Vec2::new(vpl.u, vpl.v));
+        Self::new(ts, vpl.material, uv, n, Vec3::from(vpl.wi), -1.0)
     }
 
     #[inline]
     fn f_cos(&self, w: Vec3) -> Rgb {
-        let wi = self.frame.to_local(w);
-        self.bsdf.eval(self.wo, wi) * wi.z.abs()
+        let x = self.frame.to_local(w * self.sign);
+        self.bsdf.eval(self.fixed, x) * x.z.abs()
     }
 
-    fn peak(&self) -> Vec3 {
-        surface_peak(&self.bsdf, self.n, self.frame.to_world(self.wo))
-    }
-
-    /// f·cos over gather directions, with its angular scale.
-    fn lobe(&self) -> (Lobe, f32) {
-        let lobe = Lobe::Surface {
-            bsdf: self.bsdf,
-            frame: self.frame,
-            fixed: self.wo,
-            sign: 1.0,
-        };
-        (lobe, bsdf_scale(&self.bsdf))
-    }
-}
-
-/// A VPL's scattering function as a function of the gather direction ω' at the receiver (the
-/// light leaves the VPL along −ω'), with the cosine at the VPL.
-struct SurfaceLight {
-    bsdf: Bsdf,
-    frame: Frame,
-    wi: Vec3,
-    n: Vec3,
-}
-
-impl SurfaceLight {
-    fn new(ts: &TraceScene, vpl: &SurfaceVertex) -> Option<Self> {
-        let bsdf = ts.scene.bsdf_at(vpl.material, Some(Vec2::new(vpl.u, vpl.v)))?;
-        if bsdf.is_delta() {
-            return None;
-        }
-        let n = Vec3::from(vpl.normal);
-        let frame = Frame::from_normal(n);
-        Some(Self {
-            bsdf,
-            frame,
-            wi: frame.to_local(Vec3::from(vpl.wi)),
-            n,
-        })
-    }
-
-    #[inline]
-    fn f_cos(&self, gather: Vec3) -> Rgb {
-        let wo = self.frame.to_local(-gather);
-        self.bsdf.eval(wo, self.wi) * wo.z.abs()
-    }
-
-    /// f·cos over gather directions (the light leaves along −ω'), with its angular scale.
-    fn lobe(&self) -> (Lobe, f32) {
-        let lobe = Lobe::Surface {
-            bsdf: self.bsdf,
-            frame: self.frame,
-            fixed: self.wi,
-            sign: -1.0,
-        };
-        (lobe, bsdf_scale(&self.bsdf))
-    }
-
-    /// ω'_max for this VPL seen through `cone`: the lobe's peak is an outgoing direction at the
-    /// VPL, the gather direction is its opposite.
+    /// ω'_max within `cone`: the gather direction closest to the lobe's peak (the mirror
+    /// direction of the fixed one for Phong, the normal for Lambert), or closest to the normal
+    /// if that one lies below the horizon.
     fn max_dir(&self, cone: &Cone) -> Vec3 {
-        let peak = surface_peak(&self.bsdf, self.n, self.frame.to_world(self.wi));
-        surface_max_dir(cone, -peak, -self.n)
+        surface_max_dir(cone, self.peak, self.n * self.sign)
+    }
+
+    /// f·cos over gather directions as a lobe to draw directions from, with its angular scale.
+    fn lobe(&self) -> (Lobe, f32) {
+        (Lobe::Surface(*self), bsdf_scale(&self.bsdf))
     }
 }
 
@@ -580,7 +529,7 @@ pub fn vbl_to_surface(
     let r2 = clean_r2(r2);
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
     let p = Vec3::from(sp.pos);
-    let Some(rx) = Receiver::new(ts, sp) else {
+    let Some(rx) = Surface::receiver(ts, sp) else {
         return Rgb::ZERO;
     };
     let hg = HenyeyGreenstein { g: m.g };
@@ -591,7 +540,6 @@ pub fn vbl_to_surface(
         return Rgb::ZERO;
     }
     let line = LineAngles::new(ov, dv, 0.0, len, p, r2.sqrt());
-    let peak = rx.peak();
     let scale = bsdf_scale(&rx.bsdf).min(hg_scale(m.g));
     let (u, pdf) = sample_angular(&line, 0.0, len, settings, scale, s.next_1d(), |t| {
         let y = ov + dv * t;
@@ -602,7 +550,7 @@ pub fn vbl_to_surface(
             }
             AngularPdf::Vbl => match vsl_cone(p, y, r2, rx.n) {
                 Some(cone) => {
-                    let w = surface_max_dir(&cone, peak, rx.n);
+                    let w = rx.max_dir(&cone);
                     luminance_mean(rx.f_cos(w)) * phase(w)
                 }
                 None => 0.0,
@@ -718,7 +666,7 @@ pub fn vsl_to_media(
     if !(seg.length > 0.0) {
         return Rgb::ZERO;
     }
-    let Some(light) = SurfaceLight::new(ts, vpl) else {
+    let Some(light) = Surface::light(ts, vpl) else {
         return Rgb::ZERO;
     };
     let hg = HenyeyGreenstein { g: m.g };
@@ -770,7 +718,7 @@ pub fn vsl_to_surface(
 ) -> Rgb {
     let r2 = clean_r2(r2);
     let (p, q) = (Vec3::from(sp.pos), Vec3::from(vpl.pos));
-    let (Some(rx), Some(light)) = (Receiver::new(ts, sp), SurfaceLight::new(ts, vpl)) else {
+    let (Some(rx), Some(light)) = (Surface::receiver(ts, sp), Surface::light(ts, vpl)) else {
         return Rgb::ZERO;
     };
     let rnd = ConeRandom::draw(s);
@@ -828,18 +776,17 @@ mod tests {
         let wo = frame.to_local(Vec3::new(-0.5, 0.6, 0.3).normalize());
         // The lobe peaks at the mirror direction of wo; put the sphere near it.
         let mirror = frame.to_world(Vec3::new(-wo.x, -wo.y, wo.z));
-        let receiver = Lobe::Surface {
-            bsdf: phong,
-            frame,
-            fixed: wo,
-            sign: 1.0,
+        let surface = |sign: f32| {
+            Lobe::Surface(Surface {
+                bsdf: phong,
+                frame,
+                fixed: wo,
+                n,
+                sign,
+                peak: surface_peak(&phong, n, frame.to_world(wo)) * sign,
+            })
         };
-        let vpl = Lobe::Surface {
-            bsdf: phong,
-            frame,
-            fixed: wo,
-            sign: -1.0,
-        };
+        let (receiver, vpl) = (surface(1.0), surface(-1.0));
         let hg = Lobe::Phase {
             hg: HenyeyGreenstein { g: 0.95 },
             a: -mirror,
@@ -855,15 +802,7 @@ mod tests {
             let centre = (towards + Vec3::new(0.05, -0.03, 0.04)).normalize();
             let cone = vsl_cone(Vec3::ZERO, centre, r * r, n).unwrap();
             let g = |w: Vec3| match lobe {
-                Lobe::Surface {
-                    bsdf,
-                    frame,
-                    fixed,
-                    sign,
-                } => {
-                    let l = frame.to_local(w * sign);
-                    bsdf.eval(fixed, l) * l.z.abs()
-                }
+                Lobe::Surface(sf) => sf.f_cos(w),
                 Lobe::Phase { hg, a, sign } => Rgb::splat(hg.eval(a, w * sign)),
             };
             let stats = |with_lobe: bool| {
