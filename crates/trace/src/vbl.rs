@@ -540,8 +540,10 @@ pub fn vbl_to_surface(
         return Rgb::ZERO;
     }
     let line = LineAngles::new(ov, dv, 0.0, len, p, r2.sqrt());
-    let scale = bsdf_scale(&rx.bsdf).min(hg_scale(m.g));
-    let (u, pdf) = sample_angular(&line, 0.0, len, settings, scale, s.next_1d(), |t| {
+    // The integrand's sharpest lobe: its scale sets the PDF's vertex count, and wide cones
+    // draw directions from it.
+    let lobe = sharper(rx.lobe(), phase_lobe(hg, -dv, -1.0));
+    let (u, pdf) = sample_angular(&line, 0.0, len, settings, lobe.1, s.next_1d(), |t| {
         let y = ov + dv * t;
         match settings.pdf {
             AngularPdf::Vrl => {
@@ -565,7 +567,6 @@ pub fn vbl_to_surface(
     let Some(cone) = vsl_cone(p, y, r2, rx.n) else {
         return Rgb::ZERO;
     };
-    let lobe = sharper(rx.lobe(), phase_lobe(hg, -dv, -1.0));
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| rx.f_cos(w) * phase(w));
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
@@ -612,8 +613,8 @@ pub fn vbl_to_media(
     let peak = hg_peak_gather(mv.g, dv).or_else(|| hg_peak_gather(mc.g, -dc));
     // Stage 2: the camera point by a piecewise-linear PDF in the angle about y.
     let line = LineAngles::new(oc, dc, 0.0, seg.length, y, r);
-    let scale = hg_scale(mv.g).min(hg_scale(mc.g));
-    let (t, pdf_t) = sample_angular(&line, 0.0, seg.length, settings, scale, s.next_1d(), |t| {
+    let lobe = sharper(phase_lobe(hv, -dv, -1.0), phase_lobe(hc, -dc, 1.0));
+    let (t, pdf_t) = sample_angular(&line, 0.0, seg.length, settings, lobe.1, s.next_1d(), |t| {
         let x = oc + dc * t;
         let w = match settings.pdf {
             AngularPdf::Vrl => (y - x).normalize_or_zero(),
@@ -632,7 +633,6 @@ pub fn vbl_to_media(
     let Some(cone) = vsl_cone(x, y, r2, -dc) else {
         return Rgb::ZERO;
     };
-    let lobe = sharper(phase_lobe(hv, -dv, -1.0), phase_lobe(hc, -dc, 1.0));
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         Rgb::splat(phase_x(w) * phase_y(w))
     });
@@ -672,8 +672,8 @@ pub fn vsl_to_media(
     let hg = HenyeyGreenstein { g: m.g };
     let phase = |w: Vec3| hg.eval(-d, w);
     let line = LineAngles::new(o, d, 0.0, seg.length, q, r2.sqrt());
-    let scale = bsdf_scale(&light.bsdf).min(hg_scale(m.g));
-    let (t, pdf) = sample_angular(&line, 0.0, seg.length, settings, scale, s.next_1d(), |t| {
+    let lobe = sharper(light.lobe(), phase_lobe(hg, -d, 1.0));
+    let (t, pdf) = sample_angular(&line, 0.0, seg.length, settings, lobe.1, s.next_1d(), |t| {
         let x = o + d * t;
         let w = match settings.pdf {
             AngularPdf::Vrl => (q - x).normalize_or_zero(),
@@ -692,7 +692,6 @@ pub fn vsl_to_media(
     let Some(cone) = vsl_cone(x, q, r2, -d) else {
         return Rgb::ZERO;
     };
-    let lobe = sharper(light.lobe(), phase_lobe(hg, -d, 1.0));
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         light.f_cos(w) * phase(w)
     });
