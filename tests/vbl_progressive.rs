@@ -59,22 +59,14 @@ fn vbl_components_converge_to_the_path_tracer() {
     assert_eq!(result.film.rejected, 0);
     eprintln!("vbl: {} passes in {:?}", result.passes, result.elapsed);
     let ours: Vec<DVec3> = result.components.iter().map(|f| f.image().mean().as_dvec3()).collect();
-    for c in [
+    let components = [
         Component::Direct,
         Component::Lss,
         Component::Lsm,
         Component::Lms,
         Component::Lmm,
-    ] {
-        let (a, b) = (ours[c as usize], reference[c as usize]);
-        let rel = ((a - b) / b).abs().max_element();
-        eprintln!(
-            "{:>4}: vbl {a:.5}, path tracer {b:.5}, relative difference {rel:.4}",
-            c.name()
-        );
-        assert!(b.min_element() > 0.0, "{}: the scene must have some", c.name());
-        assert!(rel < 0.05, "{}: vbl {a} vs path tracer {b}", c.name());
-    }
+    ];
+    assert_components_match("vbl", &ours, &reference, &components, |_| 0.05);
 }
 
 /// Per-pixel relative RMS error of `film` against reference means.

@@ -11,6 +11,7 @@ use beamlight_scene::{
 };
 use beamlight_trace::{
     TraceScene,
+    components::Component,
     pt::{self, PathTracerSettings},
 };
 use glam::{DVec3, Mat4, Vec2, Vec3};
@@ -357,4 +358,26 @@ pub fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
         }
     }
     sum.map(|v| v / (spp as f64 * (w * h) as f64))
+}
+
+/// Compares per-component image means with the path tracer's (`Component::ALL` order): prints
+/// each of `components`, and asserts that the reference has some of it and that the worst
+/// channel's relative difference is below `tolerance(c)`.
+pub fn assert_components_match(
+    label: &str,
+    ours: &[DVec3],
+    reference: &[DVec3; 7],
+    components: &[Component],
+    tolerance: impl Fn(Component) -> f64,
+) {
+    for &c in components {
+        let (a, b) = (ours[c as usize], reference[c as usize]);
+        let rel = ((a - b) / b).abs().max_element();
+        eprintln!(
+            "{:>15}: {label} {a:.5}, path tracer {b:.5}, relative difference {rel:.4}",
+            c.name()
+        );
+        assert!(b.min_element() > 0.0, "{}: the scene must have some", c.name());
+        assert!(rel < tolerance(c), "{}: {label} {a} vs path tracer {b}", c.name());
+    }
 }
