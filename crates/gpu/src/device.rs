@@ -1,0 +1,158 @@
+//! Opening the GPU: a headless wgpu device on the Vulkan backend.
+//!
+//! `auto` prefers a discrete GPU, then an integrated one, then a virtual one, then a CPU
+//! adapter (Mesa's lavapipe); without any, the caller falls back to the CPU estimators.
+use std::fmt;
+
+/// Which device runs the gathers (`--backend`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Backend {
+    /// The best Vulkan adapter there is, else the CPU estimators.
+    #[default]
+    Auto,
+    /// The CPU estimators only.
+    Cpu,
+    /// A Vulkan adapter, or an error.
+    Gpu,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error(
+        "no Vulkan adapter found (install one; on Debian `apt-get install mesa-vulkan-drivers` gives \
+         the CPU adapter lavapipe)"
+    )]
+    NoAdapter,
+    #[error("the Vulkan adapter {adapter} refused a device: {source}")]
+    Device {
+        adapter: String,
+        source: wgpu::RequestDeviceError,
+    },
+    #[error("WGSL: {0}")]
+    Shader(String),
+    #[error("GPU buffer readback failed: {0}")]
+    Readback(String),
+    #[error("{what} needs {needed} but the adapter allows {allowed}")]
+    Limit {
+        what: &'static str,
+        needed: u64,
+        allowed: u64,
+    },
+}
+
+/// An open device with what the kernels need to know about it.
+pub struct Gpu {
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+    /// Timestamp queries inside compute passes (kernel times without wall-clock noise).
+    pub timestamps: bool,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+}
+
+fn instance() -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = wgpu::Backends::VULKAN;
+    wgpu::Instance::new(desc)
+}
+
+/// Lower is better: the order `auto` tries adapters in.
+fn rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    }
+}
+
+/// Every Vulkan adapter on this machine, best first.
+pub fn adapters() -> Vec<wgpu::AdapterInfo> {
+    let mut all: Vec<_> = pollster::block_on(instance().enumerate_adapters(wgpu::Backends::VULKAN))
+        .iter()
+        .map(|a| a.get_info())
+        .collect();
+    all.sort_by_key(|i| rank(i.device_type));
+    all
+}
+
+impl Gpu {
+    /// Opens the best Vulkan adapter (see the module docs).
+    pub fn open() -> Result<Gpu, GpuError> {
+        let mut candidates = pollster::block_on(instance().enumerate_adapters(wgpu::Backends::VULKAN));
+        candidates.sort_by_key(|a| rank(a.get_info().device_type));
+        let adapter = candidates.into_iter().next().ok_or(GpuError::NoAdapter)?;
+        let info = adapter.get_info();
+        let supported = adapter.limits();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        // Ask for everything the adapter offers: big storage bindings and workgroup counts
+        // matter for big scenes, and nothing here needs to run on weaker devices than this one.
+        let required_features = if timestamps {
+            wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        };
+        let desc = wgpu::DeviceDescriptor {
+            label: Some("beamlight"),
+            required_features,
+            required_limits: supported.clone(),
+            ..Default::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&desc)).map_err(|source| GpuError::Device {
+            adapter: info.name.clone(),
+            source,
+        })?;
+        Ok(Gpu {
+            info,
+            limits: supported,
+            timestamps,
+            device,
+            queue,
+        })
+    }
+
+    /// The adapter in one line: name, kind and driver.
+    pub fn describe(&self) -> String {
+        describe(&self.info)
+    }
+}
+
+/// An adapter in one line.
+pub fn describe(info: &wgpu::AdapterInfo) -> String {
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => "discrete GPU",
+        wgpu::DeviceType::IntegratedGpu => "integrated GPU",
+        wgpu::DeviceType::VirtualGpu => "virtual GPU",
+        wgpu::DeviceType::Cpu => "CPU adapter",
+        wgpu::DeviceType::Other => "other adapter",
+    };
+    format!(
+        "{} ({kind}, {:?}, {} {})",
+        info.name, info.backend, info.driver, info.driver_info
+    )
+}
+
+impl fmt::Debug for Gpu {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.describe())
+    }
+}
+
+/// Whether GPU tests must fail rather than skip when there is no adapter (`CI=true`).
+pub fn required_by_environment() -> bool {
+    std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
+}
+
+/// Opens the GPU for a test: `None` (with a message saying how to get lavapipe) when there is
+/// no adapter outside CI; a panic when there is none in CI.
+pub fn for_tests() -> Option<Gpu> {
+    match Gpu::open() {
+        Ok(gpu) => Some(gpu),
+        Err(e) if !required_by_environment() => {
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+        Err(e) => panic!("CI=true and no GPU: {e}"),
+    }
+}

@@ -1,0 +1,111 @@
+//! Every struct that crosses the CPU–GPU boundary: `#[repr(C)]` + `Pod` here, mirrored by a
+//! WGSL struct of the same name in `shaders/` (`tests/layout.rs` checks size, alignment and
+//! each member's offset with naga). A `vec3<f32>` has 16-byte alignment in WGSL, so each
+//! 3-vector is followed by a 4-byte scalar.
+use bytemuck::{Pod, Zeroable};
+
+/// A node of the flattened BVH2 (`BvhNode` in `lib/scene.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub lo: [f32; 3],
+    /// Triangles in the leaf; 0 for an inner node.
+    pub count: u32,
+    pub hi: [f32; 3],
+    /// Inner node: index of the left child (the right one follows it). Leaf: first triangle.
+    pub first: u32,
+}
+
+/// A triangle in BVH leaf order (`Triangle` in `lib/scene.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Triangle {
+    pub p0: [f32; 3],
+    /// Index in `Scene::triangles`.
+    pub id: u32,
+    pub p1: [f32; 3],
+    pub _pad1: u32,
+    pub p2: [f32; 3],
+    pub _pad2: u32,
+}
+
+/// Per scene triangle, in scene order (`TriangleInfo` in `lib/scene.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TriangleInfo {
+    /// Position of the triangle in the leaf-ordered triangle array.
+    pub leaf_slot: u32,
+    /// [`TRI_NULL_INTERFACE`] or 0.
+    pub flags: u32,
+    /// Media on the back and front side ([`NO_MEDIUM`] for vacuum).
+    pub inside: u32,
+    pub outside: u32,
+}
+
+/// `TriangleInfo::flags`: a medium boundary without a BSDF, which shadow rays pass through.
+pub const TRI_NULL_INTERFACE: u32 = 1;
+/// A medium index meaning vacuum (the CPU's `camera_paths::NO_MEDIUM`).
+pub const NO_MEDIUM: u32 = u32::MAX;
+
+/// A medium (`Medium` in `lib/scene.wgsl`). Homogeneous when `grid_res[0]` is 0.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Medium {
+    pub sigma_s: [f32; 3],
+    pub g: f32,
+    pub sigma_a: [f32; 3],
+    /// First density value in the shared grid buffer.
+    pub grid_offset: u32,
+    pub grid_lo: [f32; 3],
+    /// First majorant in the shared grid buffer.
+    pub majorant_offset: u32,
+    pub grid_hi: [f32; 3],
+    pub _pad: u32,
+    pub grid_res: [u32; 3],
+    pub _pad2: u32,
+    pub majorant_res: [u32; 3],
+    pub _pad3: u32,
+}
+
+/// Scene-wide facts (`SceneInfo` in `lib/scene.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SceneInfo {
+    pub node_count: u32,
+    pub has_null_interfaces: u32,
+    pub medium_count: u32,
+    pub _pad: u32,
+}
+
+/// A ray query (`Ray` in `trace_rays.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Ray {
+    pub o: [f32; 3],
+    pub tmax: f32,
+    pub d: [f32; 3],
+    /// 0: closest hit; 1: occlusion only.
+    pub any_hit: u32,
+}
+
+/// A ray query's answer (`Hit` in `lib/bvh.wgsl`): `t < 0` for a miss (for an occlusion
+/// query, `t = 0` means blocked).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Hit {
+    pub t: f32,
+    pub tri: u32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// The size of a batch and the row length of its 2-D dispatch (`RayBatch` in
+/// `trace_rays.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RayBatch {
+    pub count: u32,
+    pub row: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}

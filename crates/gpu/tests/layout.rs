@@ -1,0 +1,75 @@
+//! The Rust side of every struct crossing the CPU–GPU boundary matches its WGSL twin: size,
+//! alignment, and each member's name and offset, as naga lays the WGSL out.
+use beamlight_gpu::{layout::*, shaders};
+use std::collections::HashMap;
+
+struct Wgsl {
+    /// name → (size, alignment, [(member, offset)])
+    structs: HashMap<String, (u32, u32, Vec<(String, u32)>)>,
+}
+
+fn parse(kernel: &str) -> Wgsl {
+    let source = shaders::compose(kernel).unwrap();
+    let module = naga::front::wgsl::parse_str(&source).unwrap();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let mut structs = HashMap::new();
+    for (handle, ty) in module.types.iter() {
+        if let (Some(name), naga::TypeInner::Struct { members, .. }) = (&ty.name, &ty.inner) {
+            let l = &layouter[handle];
+            let members = members
+                .iter()
+                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                .collect();
+            structs.insert(name.clone(), (l.size, l.alignment.round_up(1), members));
+        }
+    }
+    Wgsl { structs }
+}
+
+macro_rules! check {
+    ($wgsl:expr, $ty:ident, [$($field:ident),* $(,)?]) => {{
+        let (size, align, members) = $wgsl
+            .structs
+            .get(stringify!($ty))
+            .unwrap_or_else(|| panic!("no WGSL struct {}", stringify!($ty)));
+        assert_eq!(*size as usize, size_of::<$ty>(), "size of {}", stringify!($ty));
+        // WGSL may align a struct more strictly than Rust (vec3 → 16); arrays of it must then
+        // still have the same stride, which the size check above covers. Rust must never be
+        // more strictly aligned than WGSL.
+        assert!(align_of::<$ty>() <= *align as usize, "alignment of {}", stringify!($ty));
+        assert_eq!(size % align, 0);
+        let rust: Vec<(String, u32)> = vec![$((stringify!($field).to_string(), std::mem::offset_of!($ty, $field) as u32)),*];
+        assert_eq!(members, &rust, "members of {}", stringify!($ty));
+    }};
+}
+
+#[test]
+fn scene_structs_match() {
+    let w = parse("trace_rays.wgsl");
+    check!(w, BvhNode, [lo, count, hi, first]);
+    check!(w, Triangle, [p0, id, p1, _pad1, p2, _pad2]);
+    check!(w, TriangleInfo, [leaf_slot, flags, inside, outside]);
+    check!(
+        w,
+        Medium,
+        [
+            sigma_s,
+            g,
+            sigma_a,
+            grid_offset,
+            grid_lo,
+            majorant_offset,
+            grid_hi,
+            _pad,
+            grid_res,
+            _pad2,
+            majorant_res,
+            _pad3
+        ]
+    );
+    check!(w, SceneInfo, [node_count, has_null_interfaces, medium_count, _pad]);
+    check!(w, Ray, [o, tmax, d, any_hit]);
+    check!(w, Hit, [t, tri, b1, b2]);
+    check!(w, RayBatch, [count, row, _pad0, _pad1]);
+}

@@ -1,0 +1,71 @@
+// The scene as the kernels see it: bind group 0, shared by every kernel that traces rays.
+// Each struct mirrors a `#[repr(C)]` type in `crates/gpu/src/layout.rs` (checked by
+// `crates/gpu/tests/layout.rs`).
+
+// A node of the flattened BVH2. Inner nodes (count = 0): children at `first` and `first + 1`.
+// Leaves: triangles `first .. first + count` of `triangles`.
+struct BvhNode {
+    lo: vec3<f32>,
+    count: u32,
+    hi: vec3<f32>,
+    first: u32,
+}
+
+// A triangle in BVH leaf order; `id` is its index in the scene.
+struct Triangle {
+    p0: vec3<f32>,
+    id: u32,
+    p1: vec3<f32>,
+    _pad1: u32,
+    p2: vec3<f32>,
+    _pad2: u32,
+}
+
+// Per scene triangle (scene order).
+struct TriangleInfo {
+    // Position of the triangle in `triangles`.
+    leaf_slot: u32,
+    // TRI_NULL_INTERFACE when shadow rays pass through it (a medium boundary without a BSDF).
+    flags: u32,
+    // Media on the two sides, NO_MEDIUM for vacuum (meaningful only for interfaces).
+    inside: u32,
+    outside: u32,
+}
+
+const TRI_NULL_INTERFACE: u32 = 1u;
+const NO_MEDIUM: u32 = 0xffffffffu;
+
+// A medium. Homogeneous when `grid_res.x` = 0; otherwise a density grid of `grid_res` cells
+// over [grid_lo, grid_hi] starting at `grid[grid_offset]` (x fastest), followed by its
+// majorant grid of `majorant_res` cells.
+struct Medium {
+    sigma_s: vec3<f32>,
+    g: f32,
+    sigma_a: vec3<f32>,
+    grid_offset: u32,
+    grid_lo: vec3<f32>,
+    majorant_offset: u32,
+    grid_hi: vec3<f32>,
+    _pad: u32,
+    grid_res: vec3<u32>,
+    _pad2: u32,
+    majorant_res: vec3<u32>,
+    _pad3: u32,
+}
+
+// Scene-wide facts.
+struct SceneInfo {
+    // Number of BVH nodes (0 for an empty scene).
+    node_count: u32,
+    // 1 when any triangle is a null interface: shadow rays must then walk hits.
+    has_null_interfaces: u32,
+    medium_count: u32,
+    _pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> scene_info: SceneInfo;
+@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(3) var<storage, read> triangle_info: array<TriangleInfo>;
+@group(0) @binding(4) var<storage, read> media: array<Medium>;
+@group(0) @binding(5) var<storage, read> grid: array<f32>;
