@@ -182,6 +182,7 @@ fn all_components_add_up_to_the_path_tracers_image() {
             light_paths_per_pass: 128,
             ..Default::default()
         },
+        gpu: None,
     };
     let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);

@@ -41,6 +41,7 @@ fn components_match(lumpy: bool) {
             clamp: 0.0,
             ..Default::default()
         },
+        gpu: None,
     };
     let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
@@ -95,6 +96,7 @@ fn clamping_loses_energy_on_a_glossy_scene() {
                 clamp: 0.0,
                 ..Default::default()
             },
+            gpu: None,
         };
         let r = render(&ts, &opts, |_| true).unwrap();
         // The indirect components, the ones clamping touches.
@@ -137,6 +139,7 @@ fn vrl_furnace_converges_to_two() {
             light_paths_per_pass: 128,
             ..Default::default()
         },
+        gpu: None,
     };
     let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);

@@ -25,6 +25,7 @@ fn options(method: Method, w: u32, h: u32, passes: u64, paths: u32, seed: u32) -
             light_paths_per_pass: paths,
             ..Default::default()
         },
+        gpu: None,
     }
 }
 

@@ -134,3 +134,15 @@ fn spawn_from_triangle(id: u32, p: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
     let bound = max(abs(t.p0), max(abs(t.p1), abs(t.p2))) * INTERPOLATION_ERROR;
     return offset_ray_origin(p, bound, face_towards(triangle_normal(t), w));
 }
+
+// The point with barycentrics (b1, b2) of `t`, summed in the CPU's order (`TraceScene::surface`)
+// so that both sides spawn the next ray from the same float.
+fn triangle_point(t: Triangle, b1: f32, b2: f32) -> vec3<f32> {
+    return t.p0 * (1.0 - b1 - b2) + t.p1 * b1 + t.p2 * b2;
+}
+
+// Per-axis error bound of `triangle_point(t, b1, b2)` (`geometry::interpolation_error`): tighter
+// than the whole-triangle bound of `spawn_from_triangle`, and what `SurfaceHit::spawn` uses.
+fn interpolation_error(t: Triangle, b1: f32, b2: f32) -> vec3<f32> {
+    return (abs(t.p0 * (1.0 - b1 - b2)) + abs(t.p1 * b1) + abs(t.p2 * b2)) * INTERPOLATION_ERROR;
+}

@@ -138,6 +138,7 @@ pub fn render_pt(scene: Scene, passes: u64, seed: u32, max_depth: Option<u32>) -
         start: Instant::now(),
         components: false,
         many_lights: Default::default(),
+        gpu: None,
     };
     let r = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(r.film.rejected, 0, "non-finite samples reached the film");

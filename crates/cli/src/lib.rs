@@ -1,9 +1,10 @@
 //! The `beamlight` command line: `render`, `compare`, `info`.
 use anyhow::{Context, Result, bail};
+use beamlight_gpu::{Gpu, GpuBackend, gather::GatherKernel};
 use beamlight_render::{
     Budget, Film, Method, RenderOptions, compare,
     components::{Component, SceneFeatures},
-    many_lights::ManyLightSettings,
+    many_lights::{ManyLightSettings, PassTimes},
     output,
 };
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
@@ -13,6 +14,7 @@ use std::{
     io::IsTerminal,
     path::{Path, PathBuf},
     process::ExitCode,
+    sync::Arc,
     time::{Duration, Instant},
 };
 
@@ -124,6 +126,10 @@ struct RenderArgs {
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
     alpha: f32,
+    /// Print where the passes' time went: CPU tracing, CPU estimates, waiting for the GPU,
+    /// and each GPU kernel's time (from timestamp queries).
+    #[arg(long)]
+    stats: bool,
 }
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
@@ -179,12 +185,6 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha must lie strictly between 0 and 1, got {}", args.alpha);
     }
-    let backend = match args.backend {
-        BackendArg::Gpu => {
-            bail!("--backend gpu: there are no GPU kernels yet; every method runs on the CPU")
-        }
-        BackendArg::Auto | BackendArg::Cpu => "cpu",
-    };
     let budget = match (args.passes.or(args.spp), args.time) {
         (Some(0), _) => bail!("--passes/--spp must be at least 1"),
         (Some(n), _) => Budget::Passes(n),
@@ -217,6 +217,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             args.scene.display()
         );
     }
+    let (gpu, backend) = choose_backend(args.backend, method, &ts)?;
     eprintln!(
         "beamlight: {} ({} triangles), {width}x{height}, method {}, backend {backend}",
         args.scene.display(),
@@ -252,12 +253,13 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             // The method decides between rays and beams.
             lights: Default::default(),
         },
+        gpu,
     };
     let bar = progress_bar(&budget);
     let outputs = Outputs {
         args: &args,
         method,
-        backend,
+        backend: &backend,
     };
     let mut last_write = Instant::now();
     let mut write_error = None;
@@ -286,6 +288,9 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             result.film.rejected
         );
     }
+    if args.stats {
+        print_stats(&result.pass_times);
+    }
     eprintln!(
         "done: {} in {secs:.2} s, {} spp, {:.3} Msamples/s -> {}",
         method.name(),
@@ -294,6 +299,63 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         args.output.display()
     );
     Ok(())
+}
+
+/// Picks the device for the gathers (`--backend`) and says what runs where. `gpu` needs a
+/// Vulkan adapter; `auto` takes one when the method has GPU kernels and falls back to the CPU.
+fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(Option<Arc<GpuBackend>>, String)> {
+    let has_kernels = matches!(method, Method::Vrl | Method::VrlClamped);
+    let open = || GpuBackend::open(&ts.scene).map(Arc::new);
+    Ok(match arg {
+        BackendArg::Cpu => (None, "cpu".to_string()),
+        BackendArg::Gpu => {
+            let g = open().map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+            let what = if has_kernels {
+                "VRL/VPL gathers; tracing, direct light and caustics on the CPU"
+            } else {
+                "idle: this method has no GPU kernels yet and runs on the CPU"
+            };
+            let name = format!("gpu ({}: {what})", g.gpu.describe());
+            (has_kernels.then_some(g), name)
+        }
+        BackendArg::Auto if !has_kernels => (None, "cpu (this method has no GPU kernels yet)".to_string()),
+        BackendArg::Auto => match open() {
+            Ok(g) => {
+                let name = format!("gpu ({}: VRL/VPL gathers)", g.gpu.describe());
+                (Some(g), name)
+            }
+            Err(e) => (None, format!("cpu ({e})")),
+        },
+    })
+}
+
+/// The `--stats` timeline summary: per pass, where the time went.
+fn print_stats(times: &[PassTimes]) {
+    if times.is_empty() {
+        eprintln!("stats: no many-light passes");
+        return;
+    }
+    let n = times.len() as f64;
+    let mean = |f: &dyn Fn(&PassTimes) -> f64| times.iter().map(f).sum::<f64>() / n * 1e3;
+    eprintln!("stats over {} passes (mean ms per pass):", times.len());
+    eprintln!(
+        "  cpu trace (camera + light paths, maps) {:>9.2}",
+        mean(&|t| t.trace.as_secs_f64())
+    );
+    eprintln!(
+        "  cpu estimates                          {:>9.2}",
+        mean(&|t| t.cpu_estimates.as_secs_f64())
+    );
+    eprintln!(
+        "  waiting for the gpu                    {:>9.2}",
+        mean(&|t| t.gpu_wait.as_secs_f64())
+    );
+    for k in GatherKernel::ALL {
+        let ms = mean(&|t| t.kernels[k as usize]);
+        if ms > 0.0 {
+            eprintln!("  gpu kernel {:<28}{:>9.2}", k.name(), ms);
+        }
+    }
 }
 
 /// Where and how the render's images are written (at the end, and with `--write-every`).
@@ -474,6 +536,29 @@ fn info(path: &Path) -> Result<()> {
         .camera_medium
         .map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
     outln!(out, "camera in   {cam_medium}");
-    outln!(out, "backend     cpu (the path tracer runs on the CPU)");
+    let adapters = beamlight_gpu::device::adapters();
+    if adapters.is_empty() {
+        outln!(out, "gpu         none (no Vulkan adapter: the gathers run on the CPU)");
+    }
+    for (i, a) in adapters.iter().enumerate() {
+        outln!(out, "gpu {i}       {}", beamlight_gpu::device::describe(a));
+    }
+    if !adapters.is_empty() {
+        match Gpu::open() {
+            Ok(g) => {
+                let l = &g.limits;
+                outln!(
+                    out,
+                    "gpu limits  storage binding {} MiB, buffer {} MiB, {} workgroups per dimension, {} storage buffers per stage, timestamps {}",
+                    l.max_storage_buffer_binding_size >> 20,
+                    l.max_buffer_size >> 20,
+                    l.max_compute_workgroups_per_dimension,
+                    l.max_storage_buffers_per_shader_stage,
+                    if g.timestamps { "yes" } else { "no" }
+                );
+            }
+            Err(e) => outln!(out, "gpu limits  unavailable: {e}"),
+        }
+    }
     print_stdout(&out)
 }

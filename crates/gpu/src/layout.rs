@@ -109,3 +109,40 @@ pub struct RayBatch {
     pub _pad0: u32,
     pub _pad1: u32,
 }
+
+/// A BSDF with its texture applied (`Bsdf` in `lib/shading.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Bsdf {
+    /// Lambert albedo or Phong diffuse colour.
+    pub diffuse: [f32; 3],
+    pub exponent: f32,
+    pub specular: [f32; 3],
+    /// [`BSDF_NONE`], [`BSDF_LAMBERT`] or [`BSDF_PHONG`].
+    pub kind: u32,
+}
+
+/// No BSDF, or a delta one (mirror, glass): nothing to evaluate.
+pub const BSDF_NONE: u32 = 0;
+pub const BSDF_LAMBERT: u32 = 1;
+pub const BSDF_PHONG: u32 = 2;
+
+/// The parameters of one gather dispatch (`GatherParams` in `lib/gather.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GatherParams {
+    /// `beamlight_trace::streams::pair_seed` of the render seed.
+    pub pair_seed: u32,
+    pub pass_index: u32,
+    /// Gather records (shading points or media segments).
+    pub records: u32,
+    /// Light records (VPLs or VRLs).
+    pub lights: u32,
+    /// Invocations per row of the 2-D dispatch.
+    pub row: u32,
+    /// Minimum distance of the 1/d² falloff (0: unclamped).
+    pub clamp: f32,
+    /// 1 / light paths traced.
+    pub scale: f32,
+    pub _pad: u32,
+}

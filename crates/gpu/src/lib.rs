@@ -3,6 +3,7 @@
 //! kernel a twin of a CPU estimator in `beamlight-trace` (the oracle it is tested against).
 pub mod compute;
 pub mod device;
+pub mod gather;
 pub mod layout;
 pub mod rays;
 pub mod scene;
@@ -10,3 +11,31 @@ pub mod shaders;
 
 pub use device::{Backend, Gpu, GpuError};
 pub use scene::GpuScene;
+
+/// Everything a render needs on the GPU: the device, the scene uploaded once, and the gather
+/// kernels compiled once.
+pub struct GpuBackend {
+    pub gpu: Gpu,
+    pub scene: GpuScene,
+    pub gathers: gather::Gathers,
+}
+
+impl GpuBackend {
+    /// Opens the best adapter (see [`device`]) and uploads `scene`.
+    pub fn open(scene: &beamlight_scene::Scene) -> Result<GpuBackend, GpuError> {
+        let gpu = Gpu::open()?;
+        let gpu_scene = GpuScene::upload(&gpu, scene)?;
+        let gathers = gather::Gathers::new(&gpu, &gpu_scene)?;
+        Ok(GpuBackend {
+            gpu,
+            scene: gpu_scene,
+            gathers,
+        })
+    }
+}
+
+impl std::fmt::Debug for GpuBackend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.gpu.describe())
+    }
+}

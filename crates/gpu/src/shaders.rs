@@ -14,10 +14,21 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("lib/scene.wgsl", include_str!("../../../shaders/lib/scene.wgsl")),
     ("lib/geometry.wgsl", include_str!("../../../shaders/lib/geometry.wgsl")),
     ("lib/bvh.wgsl", include_str!("../../../shaders/lib/bvh.wgsl")),
+    ("lib/media.wgsl", include_str!("../../../shaders/lib/media.wgsl")),
+    ("lib/shading.wgsl", include_str!("../../../shaders/lib/shading.wgsl")),
+    ("lib/gather.wgsl", include_str!("../../../shaders/lib/gather.wgsl")),
     ("trace_rays.wgsl", include_str!("../../../shaders/trace_rays.wgsl")),
+    ("vpl_surface.wgsl", include_str!("../../../shaders/vpl_surface.wgsl")),
+    ("vrl_surface.wgsl", include_str!("../../../shaders/vrl_surface.wgsl")),
+    ("vpl_media.wgsl", include_str!("../../../shaders/vpl_media.wgsl")),
+    ("vrl_media.wgsl", include_str!("../../../shaders/vrl_media.wgsl")),
     (
         "test/rng_bits.wgsl",
         include_str!("../../../shaders/test/rng_bits.wgsl"),
+    ),
+    (
+        "test/media_probe.wgsl",
+        include_str!("../../../shaders/test/media_probe.wgsl"),
     ),
 ];
 

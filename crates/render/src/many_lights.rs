@@ -8,18 +8,24 @@
 //! photons and progressive photon beams over the beams that leave specular bounces, with the
 //! pass's radius from the schedule of eq. 11 ([`crate::radius`]).
 use crate::radius::squared_radius;
+use beamlight_gpu::{
+    GpuBackend, GpuError,
+    gather::{GatherInputs, GatherKernel},
+};
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
-    camera_paths::{CameraPathSettings, trace_camera_paths},
+    camera_paths::{CameraPathSettings, GatherSet, trace_camera_paths},
     caustics::{BeamMap, PhotonMap},
     components::Component,
     direct,
     light_paths::{LightTracerSettings, trace_light_paths},
+    streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
 };
 use rayon::prelude::*;
+use std::time::{Duration, Instant};
 
 /// How the light paths' records are gathered for the indirect components.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -110,7 +116,24 @@ pub fn pass_squared_radius(r0: f32, settings: &ManyLightSettings, pass: u32) -> 
 
 const N: usize = Component::ALL.len();
 
-/// Renders one pass: `out[c][pixel]` receives component `c`'s estimate for each pixel.
+/// Where a pass's time went: CPU tracing and estimating, and GPU kernel time (from timestamp
+/// queries; zero on the CPU backend).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PassTimes {
+    /// Camera paths, light paths and the photon/beam maps.
+    pub trace: Duration,
+    /// The estimators that ran on the CPU (everything on the CPU backend; direct light and
+    /// caustics with the GPU), overlapping the GPU's work.
+    pub cpu_estimates: Duration,
+    /// Waiting for the GPU's results after the CPU's own share was done.
+    pub gpu_wait: Duration,
+    /// GPU kernel time, per gather kernel ([`beamlight_gpu::gather::GatherKernel`] order).
+    pub kernels: [f64; 4],
+}
+
+/// Renders one pass: `out[c][pixel]` receives component `c`'s estimate for each pixel. With
+/// `gpu`, the VRL/VPL gathers run there while the CPU computes direct light and caustics;
+/// VBL/VSL gathers have no GPU kernels yet and stay on the CPU.
 pub fn many_light_pass(
     ts: &TraceScene,
     settings: &ManyLightSettings,
@@ -119,7 +142,10 @@ pub fn many_light_pass(
     seed: u32,
     pass: u32,
     out: &mut [Vec<Rgb>; N],
-) {
+    gpu: Option<&GpuBackend>,
+) -> Result<PassTimes, GpuError> {
+    let mut times = PassTimes::default();
+    let clock = Instant::now();
     let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed, pass);
     let lights = trace_light_paths(
         ts,
@@ -133,17 +159,43 @@ pub fn many_light_pass(
     let photon_r2 = pass_squared_radius(settings.photon_radius, settings, pass);
     let photons = PhotonMap::build(&lights.caustic_photons, photon_r2);
     let beams = BeamMap::build(&lights.photon_beams, photon_r2);
+    times.trace = clock.elapsed();
+    let beams_on = settings.lights == VirtualLights::Beams;
+    let gpu = gpu.filter(|_| !beams_on);
+    let pair_seed = streams::pair_seed(seed);
+    let pending = match gpu {
+        Some(g) => Some(g.gathers.submit(
+            &g.gpu,
+            &g.scene,
+            &ts.scene,
+            &GatherInputs {
+                shading_points: &gather.shading_points,
+                media_segments: &gather.media_segments,
+                vpls: &lights.vpls,
+                vrls: &lights.vrls,
+                paths: lights.paths,
+                pair_seed,
+                pass,
+                clamp: settings.clamp,
+            },
+            [true; 4],
+        )?),
+        None => None,
+    };
+    let clock = Instant::now();
     for buffer in out.iter_mut() {
         buffer.iter_mut().for_each(|v| *v = Rgb::ZERO);
     }
     out[Component::Direct as usize].copy_from_slice(&gather.emitted);
-    // Independent random streams for the gathers (the camera and light paths use their own).
+    // Direct light and caustics keep one stream per record; each (record, virtual light) pair
+    // has its own ([`streams`]), which the GPU kernels draw from too.
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind);
+    let pair = |kind: GatherKind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
+    let on_cpu = pending.is_none();
 
     // Each gather point against every virtual light: the sum over a light set divided by its
     // path count M is the per-pass estimate.
     let (clamp, vbl) = (settings.clamp, &settings.vbl);
-    let beams_on = settings.lights == VirtualLights::Beams;
     let at_points: Vec<(u32, [Rgb; N])> = gather
         .shading_points
         .par_iter()
@@ -152,19 +204,29 @@ pub fn many_light_pass(
             let mut s = stream(0, i);
             let mut c = [Rgb::ZERO; N];
             c[Component::Direct as usize] = direct::direct_at_surface(ts, sp, &mut s);
-            let (lss, lsm) = if beams_on {
-                (
-                    sum(&lights.vpls, |v| vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut s)),
-                    sum(&lights.vrls, |v| vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut s)),
-                )
-            } else {
-                (
-                    sum(&lights.vpls, |v| vpl::vpl_to_surface(ts, sp, v, clamp, &mut s)),
-                    sum(&lights.vrls, |v| vrl::vrl_to_surface(ts, sp, v, clamp, &mut s)),
-                )
-            };
-            c[Component::Lss as usize] = lss / m;
-            c[Component::Lsm as usize] = lsm / m;
+            if on_cpu {
+                let (lss, lsm) = if beams_on {
+                    (
+                        sum(&lights.vpls, |j, v| {
+                            vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j))
+                        }),
+                        sum(&lights.vrls, |j, v| {
+                            vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VrlToSurface, i, j))
+                        }),
+                    )
+                } else {
+                    (
+                        sum(&lights.vpls, |j, v| {
+                            vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VplToSurface, i, j))
+                        }),
+                        sum(&lights.vrls, |j, v| {
+                            vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VrlToSurface, i, j))
+                        }),
+                    )
+                };
+                c[Component::Lss as usize] = lss / m;
+                c[Component::Lsm as usize] = lsm / m;
+            }
             c[Component::CausticSurface as usize] = photons.radiance(ts, sp) / m;
             (sp.pixel, c)
         })
@@ -177,19 +239,29 @@ pub fn many_light_pass(
             let mut s = stream(1, i);
             let mut c = [Rgb::ZERO; N];
             c[Component::Direct as usize] = direct::direct_in_medium(ts, seg, &mut s);
-            let (lms, lmm) = if beams_on {
-                (
-                    sum(&lights.vpls, |v| vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut s)),
-                    sum(&lights.vrls, |v| vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut s)),
-                )
-            } else {
-                (
-                    sum(&lights.vpls, |v| vpl::vpl_to_media(ts, seg, v, clamp, &mut s)),
-                    sum(&lights.vrls, |v| vrl::vrl_to_media(ts, seg, v, clamp, &mut s)),
-                )
-            };
-            c[Component::Lms as usize] = lms / m;
-            c[Component::Lmm as usize] = lmm / m;
+            if on_cpu {
+                let (lms, lmm) = if beams_on {
+                    (
+                        sum(&lights.vpls, |j, v| {
+                            vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j))
+                        }),
+                        sum(&lights.vrls, |j, v| {
+                            vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VrlToMedia, i, j))
+                        }),
+                    )
+                } else {
+                    (
+                        sum(&lights.vpls, |j, v| {
+                            vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VplToMedia, i, j))
+                        }),
+                        sum(&lights.vrls, |j, v| {
+                            vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VrlToMedia, i, j))
+                        }),
+                    )
+                };
+                c[Component::Lms as usize] = lms / m;
+                c[Component::Lmm as usize] = lmm / m;
+            }
             c[Component::CausticVolume as usize] = beams.radiance(ts, seg, &mut s) / m;
             (seg.pixel, c)
         })
@@ -199,9 +271,40 @@ pub fn many_light_pass(
             out[k][pixel as usize] += v;
         }
     }
+    times.cpu_estimates = clock.elapsed();
+    if let Some(pending) = pending {
+        let clock = Instant::now();
+        let g = pending.finish(&gpu.expect("pending implies a GPU").gpu)?;
+        times.gpu_wait = clock.elapsed();
+        times.kernels = g.kernel_seconds;
+        let targets = [
+            (GatherKernel::VplSurface, Component::Lss),
+            (GatherKernel::VrlSurface, Component::Lsm),
+            (GatherKernel::VplMedia, Component::Lms),
+            (GatherKernel::VrlMedia, Component::Lmm),
+        ];
+        for (kernel, component) in targets {
+            let values = &g.results[kernel as usize];
+            let pixels = gather_pixels(&gather, kernel);
+            for (pixel, v) in pixels.zip(values) {
+                out[component as usize][pixel as usize] += *v;
+            }
+        }
+    }
+    Ok(times)
 }
 
-/// Σ over a light set of one virtual light's contribution.
-fn sum<T>(lights: &[T], mut f: impl FnMut(&T) -> Rgb) -> Rgb {
-    lights.iter().map(&mut f).sum()
+/// The pixel of each record a gather kernel ran over.
+fn gather_pixels(gather: &GatherSet, kernel: GatherKernel) -> Box<dyn Iterator<Item = u32> + '_> {
+    match kernel {
+        GatherKernel::VplSurface | GatherKernel::VrlSurface => {
+            Box::new(gather.shading_points.iter().map(|sp| sp.pixel))
+        }
+        GatherKernel::VplMedia | GatherKernel::VrlMedia => Box::new(gather.media_segments.iter().map(|seg| seg.pixel)),
+    }
+}
+
+/// Σ over a light set of each virtual light's contribution, `f(index, light)`.
+fn sum<T>(lights: &[T], mut f: impl FnMut(usize, &T) -> Rgb) -> Rgb {
+    lights.iter().enumerate().map(|(j, l)| f(j, l)).sum()
 }

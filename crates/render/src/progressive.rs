@@ -2,8 +2,9 @@
 //! `(scene, settings, seed, pass index)`, averaged into a [`Film`] until the budget runs out.
 use crate::{
     Film,
-    many_lights::{self, ManyLightSettings, VirtualLights},
+    many_lights::{self, ManyLightSettings, PassTimes, VirtualLights},
 };
+use beamlight_gpu::GpuBackend;
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
@@ -11,6 +12,7 @@ use beamlight_trace::{
     pt::{self, PathTracerSettings},
 };
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Estimator family (`--method`).
@@ -62,6 +64,8 @@ pub struct RenderOptions {
     /// Also accumulate each transport component separately (`RenderResult::components`).
     pub components: bool,
     pub many_lights: ManyLightSettings,
+    /// The GPU that runs the gathers it has kernels for; `None` renders on the CPU alone.
+    pub gpu: Option<Arc<GpuBackend>>,
 }
 
 pub struct RenderResult {
@@ -70,6 +74,8 @@ pub struct RenderResult {
     pub components: Vec<Film>,
     pub passes: u64,
     pub elapsed: Duration,
+    /// Where each many-light pass's time went (empty for `pt`).
+    pub pass_times: Vec<PassTimes>,
 }
 
 /// The state of a render after a pass, handed to the caller (progress display, intermediate
@@ -130,6 +136,7 @@ pub fn render(
         Budget::Time(_) => None,
     };
     let mut passes = 0u64;
+    let mut pass_times = Vec::new();
     loop {
         match opts.budget {
             Budget::Passes(n) if passes >= n => break,
@@ -155,7 +162,18 @@ pub fn render(
                 &mut component_buffers,
             );
         } else {
-            many_lights::many_light_pass(ts, &many_light_settings, w, h, opts.seed, pass, &mut many_light_buffers);
+            let times = many_lights::many_light_pass(
+                ts,
+                &many_light_settings,
+                w,
+                h,
+                opts.seed,
+                pass,
+                &mut many_light_buffers,
+                opts.gpu.as_deref(),
+            )
+            .map_err(|e| format!("pass {pass} on the GPU: {e}"))?;
+            pass_times.push(times);
             for (i, px) in buffer.iter_mut().enumerate() {
                 *px = many_light_buffers.iter().map(|b| b[i]).sum();
             }
@@ -186,6 +204,7 @@ pub fn render(
         components,
         passes,
         elapsed: started.elapsed(),
+        pass_times,
     })
 }
 

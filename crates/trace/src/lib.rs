@@ -12,6 +12,7 @@ pub mod lights;
 pub mod media;
 pub mod pt;
 pub mod spatial;
+pub mod streams;
 pub mod vbl;
 pub mod vpl;
 pub mod vrl;

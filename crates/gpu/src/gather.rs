@@ -1,0 +1,319 @@
+//! The virtual-light gathers on the GPU: one kernel per transport component and method, each
+//! the twin of a CPU estimator (`shaders/vpl_surface.wgsl` ↔ `vpl::vpl_to_surface`, …). A pass
+//! uploads its gather and light records, dispatches the kernels the scene needs in one
+//! submission (each timed by timestamp queries), and reads every result back once.
+use crate::{
+    Gpu, GpuError, GpuScene,
+    compute::{self, Kernel, Slot, Timer},
+    layout::{self, BSDF_LAMBERT, BSDF_NONE, BSDF_PHONG, GatherParams},
+};
+use beamlight_scene::{Rgb, Scene, bsdf};
+use beamlight_trace::{
+    camera_paths::{MediaSegment, ShadingPoint},
+    light_paths::{LightSegment, SurfaceVertex},
+};
+use glam::Vec2;
+
+/// The gather kernels, in [`GatherKernel`] order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GatherKernel {
+    /// `Lss`: VPLs at shading points.
+    VplSurface,
+    /// `Lsm`: VRLs at shading points.
+    VrlSurface,
+    /// `Lms`: VPLs along camera media segments.
+    VplMedia,
+    /// `Lmm`: VRLs along camera media segments.
+    VrlMedia,
+}
+
+impl GatherKernel {
+    pub const ALL: [GatherKernel; 4] = [Self::VplSurface, Self::VrlSurface, Self::VplMedia, Self::VrlMedia];
+
+    pub fn file(self) -> &'static str {
+        match self {
+            Self::VplSurface => "vpl_surface.wgsl",
+            Self::VrlSurface => "vrl_surface.wgsl",
+            Self::VplMedia => "vpl_media.wgsl",
+            Self::VrlMedia => "vrl_media.wgsl",
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::VplSurface => "Lss (VPL)",
+            Self::VrlSurface => "Lsm (VRL)",
+            Self::VplMedia => "Lms (VPL)",
+            Self::VrlMedia => "Lmm (VRL)",
+        }
+    }
+
+    fn on_surfaces(self) -> bool {
+        matches!(self, Self::VplSurface | Self::VrlSurface)
+    }
+
+    fn from_vpls(self) -> bool {
+        matches!(self, Self::VplSurface | Self::VplMedia)
+    }
+}
+
+/// A BSDF in the kernels' form, its texture looked up at `uv` (the CPU's `Scene::bsdf_at`).
+pub fn resolve_bsdf(scene: &Scene, material: u32, uv: Vec2) -> layout::Bsdf {
+    match scene.bsdf_at(material, Some(uv)) {
+        Some(bsdf::Bsdf::Lambert { albedo }) => layout::Bsdf {
+            diffuse: albedo.into(),
+            kind: BSDF_LAMBERT,
+            ..Default::default()
+        },
+        Some(bsdf::Bsdf::Phong {
+            diffuse,
+            specular,
+            exponent,
+        }) => layout::Bsdf {
+            diffuse: diffuse.into(),
+            // The CPU's exponent sanitising: NaN → 0, at most 1e7.
+            exponent: if exponent.is_nan() {
+                0.0
+            } else {
+                exponent.clamp(0.0, 1e7)
+            },
+            specular: specular.into(),
+            kind: BSDF_PHONG,
+        },
+        _ => layout::Bsdf {
+            kind: BSDF_NONE,
+            ..Default::default()
+        },
+    }
+}
+
+/// One pass's records, as the CPU traced them.
+pub struct GatherInputs<'a> {
+    pub shading_points: &'a [ShadingPoint],
+    pub media_segments: &'a [MediaSegment],
+    pub vpls: &'a [SurfaceVertex],
+    pub vrls: &'a [LightSegment],
+    /// Light paths traced (the M that every sum is divided by).
+    pub paths: u32,
+    pub pair_seed: u32,
+    pub pass: u32,
+    /// Minimum distance of the 1/d² falloff (0: unclamped).
+    pub clamp: f32,
+}
+
+/// Per gather record, each kernel's estimate (empty for kernels not run), and the GPU time
+/// each kernel took (0 without timestamp queries or when not run).
+#[derive(Clone, Debug, Default)]
+pub struct Gathered {
+    pub results: [Vec<Rgb>; 4],
+    pub kernel_seconds: [f64; 4],
+}
+
+pub struct Gathers {
+    kernels: Vec<Kernel>,
+}
+
+/// The slots of bind group 1 (see `lib/gather.wgsl`).
+const GATHER_SLOTS: [Slot; 8] = [
+    Slot::Uniform,
+    Slot::Read,
+    Slot::Read,
+    Slot::Read,
+    Slot::Read,
+    Slot::Read,
+    Slot::Read,
+    Slot::ReadWrite,
+];
+
+impl Gathers {
+    pub fn new(gpu: &Gpu, scene: &GpuScene) -> Result<Gathers, GpuError> {
+        let layout = compute::bind_group_layout(gpu, "gather", &GATHER_SLOTS);
+        let kernels = GatherKernel::ALL
+            .iter()
+            .map(|k| Kernel::new(gpu, k.file(), vec![scene.layout.clone(), layout.clone()]))
+            .collect::<Result<_, _>>()?;
+        Ok(Gathers { kernels })
+    }
+
+    /// Runs the kernels with `run[k]` set and returns their results, read back once.
+    pub fn run(
+        &self,
+        gpu: &Gpu,
+        scene: &GpuScene,
+        ts_scene: &Scene,
+        inputs: &GatherInputs,
+        run: [bool; 4],
+    ) -> Result<Gathered, GpuError> {
+        self.submit(gpu, scene, ts_scene, inputs, run)?.finish(gpu)
+    }
+
+    /// Uploads the records and submits the kernels with `run[k]` set; the GPU works while the
+    /// caller does something else, until [`PendingGathers::finish`].
+    pub fn submit(
+        &self,
+        gpu: &Gpu,
+        scene: &GpuScene,
+        ts_scene: &Scene,
+        inputs: &GatherInputs,
+        run: [bool; 4],
+    ) -> Result<PendingGathers, GpuError> {
+        let wanted = |k: GatherKernel| {
+            let records = if k.on_surfaces() {
+                inputs.shading_points.len()
+            } else {
+                inputs.media_segments.len()
+            };
+            let lights = if k.from_vpls() {
+                inputs.vpls.len()
+            } else {
+                inputs.vrls.len()
+            };
+            run[k as usize] && records > 0 && lights > 0
+        };
+        // Upload only what a dispatched kernel reads.
+        let any = |f: fn(GatherKernel) -> bool| GatherKernel::ALL.iter().any(|&k| wanted(k) && f(k));
+        let (need_points, need_segments) = (any(|k| k.on_surfaces()), any(|k| !k.on_surfaces()));
+        let (need_vpls, need_vrls) = (any(|k| k.from_vpls()), any(|k| !k.from_vpls()));
+        let points = compute::storage(
+            gpu,
+            "shading points",
+            if need_points { inputs.shading_points } else { &[] },
+        )?;
+        let point_bsdfs: Vec<layout::Bsdf> = if need_points {
+            inputs
+                .shading_points
+                .iter()
+                .map(|sp| resolve_bsdf(ts_scene, sp.material, Vec2::from(sp.uv)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let point_bsdfs = compute::storage(gpu, "shading point BSDFs", &point_bsdfs)?;
+        let segments = compute::storage(
+            gpu,
+            "media segments",
+            if need_segments { inputs.media_segments } else { &[] },
+        )?;
+        let vpls = compute::storage(gpu, "VPLs", if need_vpls { inputs.vpls } else { &[] })?;
+        let vpl_bsdfs: Vec<layout::Bsdf> = if need_vpls {
+            inputs
+                .vpls
+                .iter()
+                .map(|v| resolve_bsdf(ts_scene, v.material, Vec2::new(v.u, v.v)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let vpl_bsdfs = compute::storage(gpu, "VPL BSDFs", &vpl_bsdfs)?;
+        let vrls = compute::storage(gpu, "VRLs", if need_vrls { inputs.vrls } else { &[] })?;
+
+        let mut timer = Timer::new(gpu, 4);
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let mut outputs: Vec<(GatherKernel, wgpu::Buffer, usize)> = Vec::new();
+        let mut timed = Vec::new();
+        for k in GatherKernel::ALL.into_iter().filter(|&k| wanted(k)) {
+            let records = if k.on_surfaces() {
+                inputs.shading_points.len()
+            } else {
+                inputs.media_segments.len()
+            };
+            let lights = if k.from_vpls() {
+                inputs.vpls.len()
+            } else {
+                inputs.vrls.len()
+            };
+            let (x, y, row) = compute::dispatch_size(gpu, records as u32);
+            let params = GatherParams {
+                pair_seed: inputs.pair_seed,
+                pass_index: inputs.pass,
+                records: records as u32,
+                lights: lights as u32,
+                row,
+                clamp: inputs.clamp,
+                scale: 1.0 / inputs.paths.max(1) as f32,
+                _pad: 0,
+            };
+            let params = compute::uniform(gpu, "gather params", &params);
+            let out = compute::output::<[f32; 4]>(gpu, "gathered", records)?;
+            let kernel = &self.kernels[k as usize];
+            let group = compute::bind_group(
+                gpu,
+                kernel.name,
+                &kernel.layouts[1],
+                &[
+                    &params,
+                    &points,
+                    &point_bsdfs,
+                    &segments,
+                    &vpls,
+                    &vpl_bsdfs,
+                    &vrls,
+                    &out,
+                ],
+            );
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(kernel.name),
+                    timestamp_writes: timer.next_pass(),
+                });
+                pass.set_pipeline(&kernel.pipeline);
+                pass.set_bind_group(0, &scene.bind_group, &[]);
+                pass.set_bind_group(1, &group, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            timed.push(k);
+            outputs.push((k, out, records));
+        }
+        // One staging buffer for every result: a single copy and a single map per pass.
+        let total: u64 = outputs.iter().map(|(_, _, n)| (*n * 16) as u64).sum();
+        let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("gathered readback"),
+            size: total.max(16),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut offset = 0u64;
+        let mut layout = Vec::new();
+        for (k, buffer, records) in &outputs {
+            let bytes = (*records * 16) as u64;
+            encoder.copy_buffer_to_buffer(buffer, 0, &staging, offset, bytes);
+            layout.push((*k, *records));
+            offset += bytes;
+        }
+        timer.resolve(&mut encoder);
+        gpu.queue.submit([encoder.finish()]);
+        Ok(PendingGathers {
+            staging,
+            layout,
+            timed,
+            timer,
+        })
+    }
+}
+
+/// Gathers submitted to the GPU and not yet read back.
+pub struct PendingGathers {
+    staging: wgpu::Buffer,
+    /// Each kernel's results, one after the other in `staging`: (kernel, records).
+    layout: Vec<(GatherKernel, usize)>,
+    timed: Vec<GatherKernel>,
+    timer: Timer,
+}
+
+impl PendingGathers {
+    /// Waits for the GPU and reads every result back.
+    pub fn finish(mut self, gpu: &Gpu) -> Result<Gathered, GpuError> {
+        let total: usize = self.layout.iter().map(|(_, n)| n).sum();
+        let values: Vec<[f32; 4]> = compute::map_and_copy(gpu, &self.staging, total)?;
+        let mut gathered = Gathered::default();
+        let mut at = 0;
+        for (k, n) in self.layout {
+            gathered.results[k as usize] = values[at..at + n].iter().map(|v| Rgb::new(v[0], v[1], v[2])).collect();
+            at += n;
+        }
+        for (k, seconds) in self.timed.into_iter().zip(self.timer.read(gpu)?) {
+            gathered.kernel_seconds[k as usize] = seconds;
+        }
+        Ok(gathered)
+    }
+}

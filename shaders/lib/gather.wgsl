@@ -1,0 +1,102 @@
+//! use lib/rng.wgsl
+//! use lib/shading.wgsl
+// The gathers' inputs and outputs (bind group 1 of every gather kernel): one pass's camera
+// gather records and light records, mirrored from `beamlight_trace::{camera_paths,
+// light_paths}`, with each record's BSDF resolved (texture applied) on the CPU.
+
+// `camera_paths::ShadingPoint`.
+struct ShadingPoint {
+    pos: vec3<f32>,
+    material: u32,
+    normal: vec3<f32>,
+    tri: u32,
+    wo: vec3<f32>,
+    pixel: u32,
+    throughput: vec3<f32>,
+    medium: u32,
+    uv: vec2<f32>,
+    _pad2: vec2<u32>,
+}
+
+// `camera_paths::MediaSegment`.
+struct MediaSegment {
+    origin: vec3<f32>,
+    length: f32,
+    dir: vec3<f32>,
+    medium: u32,
+    throughput: vec3<f32>,
+    pixel: u32,
+}
+
+// `light_paths::SurfaceVertex`: a VPL.
+struct SurfaceVertex {
+    pos: vec3<f32>,
+    material: u32,
+    normal: vec3<f32>,
+    tri: u32,
+    wi: vec3<f32>,
+    u: f32,
+    power: vec3<f32>,
+    v: f32,
+}
+
+// `light_paths::LightSegment`: a VRL.
+struct LightSegment {
+    origin: vec3<f32>,
+    length: f32,
+    dir: vec3<f32>,
+    medium: u32,
+    power: vec3<f32>,
+    flags: u32,
+}
+
+// `GatherParams` in crates/gpu/src/layout.rs.
+struct GatherParams {
+    // Base seed of the per-pair streams (`beamlight_trace::streams::pair_seed`).
+    pair_seed: u32,
+    pass_index: u32,
+    // Gather records (shading points or media segments) and light records (VPLs or VRLs).
+    records: u32,
+    lights: u32,
+    // Invocations per row of the 2-D dispatch.
+    row: u32,
+    // Minimum distance of the 1/d² falloff (0: unclamped).
+    clamp: f32,
+    // 1 / light paths traced: a set's sum times this is the per-pass estimate.
+    scale: f32,
+    _pad: u32,
+}
+
+@group(1) @binding(0) var<uniform> params: GatherParams;
+@group(1) @binding(1) var<storage, read> shading_points: array<ShadingPoint>;
+@group(1) @binding(2) var<storage, read> point_bsdfs: array<Bsdf>;
+@group(1) @binding(3) var<storage, read> media_segments: array<MediaSegment>;
+@group(1) @binding(4) var<storage, read> vpls: array<SurfaceVertex>;
+@group(1) @binding(5) var<storage, read> vpl_bsdfs: array<Bsdf>;
+@group(1) @binding(6) var<storage, read> vrls: array<LightSegment>;
+@group(1) @binding(7) var<storage, read_write> gathered: array<vec4<f32>>;
+
+// The streams' `kind` words (`beamlight_trace::streams::GatherKind`).
+const KIND_VPL_TO_SURFACE: u32 = 0u;
+const KIND_VRL_TO_SURFACE: u32 = 1u;
+const KIND_VPL_TO_MEDIA: u32 = 2u;
+const KIND_VRL_TO_MEDIA: u32 = 3u;
+
+// The random stream of one (gather record, light) pair: `streams::pair_sampler`.
+fn pair_sampler(kind: u32, record: u32, light: u32) -> Sampler {
+    return sampler_new(params.pair_seed + light, params.pass_index, record * 4u + kind);
+}
+
+// `vpl::falloff`: 1 / max(d², clamp²).
+fn falloff(d2: f32) -> f32 {
+    return 1.0 / max(d2, params.clamp * params.clamp);
+}
+
+fn is_black(c: vec3<f32>) -> bool {
+    return all(c == vec3<f32>(0.0));
+}
+
+// The record index of this invocation, or a value ≥ params.records past the end.
+fn record_index(gid: vec3<u32>) -> u32 {
+    return gid.x + gid.y * params.row;
+}
