@@ -319,12 +319,24 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
             (has_kernels.then_some(g), name)
         }
         BackendArg::Auto if !has_kernels => (None, "cpu (this method has no GPU kernels yet)".to_string()),
-        BackendArg::Auto => match open() {
-            Ok(g) => {
-                let name = format!("gpu ({}: VRL/VPL gathers)", g.gpu.describe());
-                (Some(g), name)
-            }
-            Err(e) => (None, format!("cpu ({e})")),
+        BackendArg::Auto => match beamlight_gpu::device::adapters().first() {
+            None => (None, "cpu (no Vulkan adapter)".to_string()),
+            // On a CPU adapter (lavapipe) the kernels share the cores with the CPU estimators
+            // and run 2-5x slower than them (`cargo bench -p beamlight-gpu`).
+            Some(a) if beamlight_gpu::device::is_cpu_adapter(a) => (
+                None,
+                format!(
+                    "cpu (the only Vulkan adapter, {}, is a CPU adapter: the CPU estimators are faster on the same cores)",
+                    a.name
+                ),
+            ),
+            Some(_) => match open() {
+                Ok(g) => {
+                    let name = format!("gpu ({}: VRL/VPL gathers)", g.gpu.describe());
+                    (Some(g), name)
+                }
+                Err(e) => (None, format!("cpu ({e})")),
+            },
         },
     })
 }

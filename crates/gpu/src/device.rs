@@ -156,3 +156,9 @@ pub fn for_tests() -> Option<Gpu> {
         Err(e) => panic!("CI=true and no GPU: {e}"),
     }
 }
+
+/// Whether an adapter runs on the CPU (lavapipe, SwiftShader): its kernels then share the
+/// cores with the CPU estimators.
+pub fn is_cpu_adapter(info: &wgpu::AdapterInfo) -> bool {
+    info.device_type == wgpu::DeviceType::Cpu
+}

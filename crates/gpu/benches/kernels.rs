@@ -1,0 +1,186 @@
+//! Kernel microbenchmarks: visibility rays and gathers per second on the GPU (kernel time
+//! from timestamp queries) against the CPU twins on the same inputs (all cores, rayon), as
+//! ratios measured in one run. Run with `cargo bench -p beamlight-gpu` (lavapipe runs on the
+//! same cores as the CPU twins, so on a machine without a GPU this compares two ways of
+//! using the same cores).
+use beamlight_gpu::{
+    GpuBackend,
+    gather::{GatherInputs, GatherKernel},
+    layout::Ray,
+    rays::RayTracer,
+};
+use beamlight_scene::{Rgb, load::load_scene, rng::Sampler};
+use beamlight_trace::{
+    TraceScene,
+    camera_paths::{CameraPathSettings, trace_camera_paths},
+    light_paths::{LightTracerSettings, trace_light_paths},
+    streams::{self, GatherKind},
+    vpl, vrl,
+};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+fn main() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/scenes/cornell_glossy_fog.toml");
+    let scene = load_scene(&path).expect("bundled scene");
+    let ts = TraceScene::new(scene);
+    let backend = match GpuBackend::open(&ts.scene) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("no GPU: {e}");
+            return;
+        }
+    };
+    println!("adapter: {}", backend.gpu.describe());
+    println!("scene: {} ({} triangles)", path.display(), ts.scene.triangles.len());
+    rays(&ts, &backend);
+    gathers(&ts, &backend);
+}
+
+fn rays(ts: &TraceScene, b: &GpuBackend) {
+    let (lo, hi) = ts.scene.bounds();
+    let mut s = Sampler::new(1, 0, 0);
+    let n = 1 << 20;
+    for any_hit in [0u32, 1] {
+        let rays: Vec<Ray> = (0..n)
+            .map(|_| {
+                let o = lo + (hi - lo) * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+                let d = (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5).normalize();
+                Ray {
+                    o: o.into(),
+                    tmax: if any_hit == 1 {
+                        0.5 * (hi - lo).length()
+                    } else {
+                        f32::INFINITY
+                    },
+                    d: d.into(),
+                    any_hit,
+                }
+            })
+            .collect();
+        let tracer = RayTracer::new(&b.gpu, &b.scene).unwrap();
+        tracer.trace(&b.gpu, &b.scene, &rays[..1024]).unwrap(); // warm-up
+        let gpu = tracer
+            .trace(&b.gpu, &b.scene, &rays)
+            .unwrap()
+            .kernel_seconds
+            .unwrap_or(f64::NAN);
+        let clock = Instant::now();
+        let hits: usize = rays
+            .par_iter()
+            .map(|r| {
+                let (o, d) = (Vec3::from(r.o), Vec3::from(r.d));
+                if any_hit == 1 {
+                    ts.bvh.occluded(o, d, r.tmax) as usize
+                } else {
+                    ts.bvh.closest_hit(o, d, r.tmax).is_some() as usize
+                }
+            })
+            .sum();
+        let cpu = clock.elapsed().as_secs_f64();
+        std::hint::black_box(hits);
+        report(
+            if any_hit == 1 {
+                "occlusion rays"
+            } else {
+                "closest-hit rays"
+            },
+            n as f64,
+            gpu,
+            cpu,
+        );
+    }
+}
+
+fn gathers(ts: &TraceScene, b: &GpuBackend) {
+    let (w, h) = (64, 64);
+    let (seed, pass) = (3, 0);
+    let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed, pass);
+    let lights = trace_light_paths(ts, &LightTracerSettings::default(), 64, seed, pass);
+    let pair_seed = streams::pair_seed(seed);
+    let inputs = GatherInputs {
+        shading_points: &gather.shading_points,
+        media_segments: &gather.media_segments,
+        vpls: &lights.vpls,
+        vrls: &lights.vrls,
+        paths: lights.paths,
+        pair_seed,
+        pass,
+        clamp: 0.0,
+    };
+    b.gathers.run(&b.gpu, &b.scene, &ts.scene, &inputs, [true; 4]).unwrap(); // warm-up
+    let g = b.gathers.run(&b.gpu, &b.scene, &ts.scene, &inputs, [true; 4]).unwrap();
+    let pair = |kind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
+    let sps = &gather.shading_points;
+    let segs = &gather.media_segments;
+    for k in GatherKernel::ALL {
+        let clock = Instant::now();
+        let total: Rgb = match k {
+            GatherKernel::VplSurface => sps
+                .par_iter()
+                .enumerate()
+                .map(|(i, sp)| {
+                    (lights.vpls.iter().enumerate())
+                        .map(|(j, v)| vpl::vpl_to_surface(ts, sp, v, 0.0, &mut pair(GatherKind::VplToSurface, i, j)))
+                        .sum::<Rgb>()
+                })
+                .sum(),
+            GatherKernel::VrlSurface => sps
+                .par_iter()
+                .enumerate()
+                .map(|(i, sp)| {
+                    (lights.vrls.iter().enumerate())
+                        .map(|(j, v)| vrl::vrl_to_surface(ts, sp, v, 0.0, &mut pair(GatherKind::VrlToSurface, i, j)))
+                        .sum::<Rgb>()
+                })
+                .sum(),
+            GatherKernel::VplMedia => segs
+                .par_iter()
+                .enumerate()
+                .map(|(i, seg)| {
+                    (lights.vpls.iter().enumerate())
+                        .map(|(j, v)| vpl::vpl_to_media(ts, seg, v, 0.0, &mut pair(GatherKind::VplToMedia, i, j)))
+                        .sum::<Rgb>()
+                })
+                .sum(),
+            GatherKernel::VrlMedia => segs
+                .par_iter()
+                .enumerate()
+                .map(|(i, seg)| {
+                    (lights.vrls.iter().enumerate())
+                        .map(|(j, v)| vrl::vrl_to_media(ts, seg, v, 0.0, &mut pair(GatherKind::VrlToMedia, i, j)))
+                        .sum::<Rgb>()
+                })
+                .sum(),
+        };
+        let cpu = clock.elapsed().as_secs_f64();
+        std::hint::black_box(total);
+        let records = if matches!(k, GatherKernel::VplSurface | GatherKernel::VrlSurface) {
+            sps.len()
+        } else {
+            segs.len()
+        };
+        let lights_n = if matches!(k, GatherKernel::VplSurface | GatherKernel::VplMedia) {
+            lights.vpls.len()
+        } else {
+            lights.vrls.len()
+        };
+        report(
+            &format!("gathers {}", k.name()),
+            (records * lights_n) as f64,
+            g.kernel_seconds[k as usize],
+            cpu,
+        );
+    }
+}
+
+fn report(what: &str, n: f64, gpu: f64, cpu: f64) {
+    println!(
+        "{what:<24} gpu {:>8.2} M/s   cpu {:>8.2} M/s ({} threads)   gpu/cpu {:>5.2}",
+        n / gpu / 1e6,
+        n / cpu / 1e6,
+        rayon::current_num_threads(),
+        cpu / gpu
+    );
+}
