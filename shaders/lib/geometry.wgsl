@@ -127,12 +127,21 @@ fn triangle_normal(t: Triangle) -> vec3<f32> {
     return normalize(cross(t.p1 - t.p0, t.p2 - t.p0));
 }
 
-// Origin for a ray leaving point `p` of scene triangle `id` towards `w`, with an error bound
-// valid anywhere on the triangle.
+// An error bound valid anywhere on the triangle, never zero along an axis
+// (`geometry::triangle_error_bound`, which says why the extent term is there).
+fn triangle_error_bound(t: Triangle) -> vec3<f32> {
+    let lo = min(t.p0, min(t.p1, t.p2));
+    let hi = max(t.p0, max(t.p1, t.p2));
+    let e = hi - lo;
+    let extent = max(e.x, max(e.y, e.z));
+    return (max(abs(t.p0), max(abs(t.p1), abs(t.p2))) + vec3<f32>(extent)) * INTERPOLATION_ERROR;
+}
+
+// Origin for a ray leaving point `p` of scene triangle `id` towards `w` (or the end of a
+// shadow ray arriving there from −w): `TraceScene::spawn_from_triangle`.
 fn spawn_from_triangle(id: u32, p: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
     let t = scene_triangle(id);
-    let bound = max(abs(t.p0), max(abs(t.p1), abs(t.p2))) * INTERPOLATION_ERROR;
-    return offset_ray_origin(p, bound, face_towards(triangle_normal(t), w));
+    return offset_ray_origin(p, triangle_error_bound(t), face_towards(triangle_normal(t), w));
 }
 
 // The point with barycentrics (b1, b2) of `t`, summed in the CPU's order (`TraceScene::surface`)

@@ -52,7 +52,7 @@ impl GatherKernel {
         matches!(self, Self::VplSurface | Self::VrlSurface)
     }
 
-    fn from_vpls(self) -> bool {
+    fn reads_vpls(self) -> bool {
         matches!(self, Self::VplSurface | Self::VplMedia)
     }
 }
@@ -163,7 +163,7 @@ impl Gathers {
             } else {
                 inputs.media_segments.len()
             };
-            let lights = if k.from_vpls() {
+            let lights = if k.reads_vpls() {
                 inputs.vpls.len()
             } else {
                 inputs.vrls.len()
@@ -173,7 +173,7 @@ impl Gathers {
         // Upload only what a dispatched kernel reads.
         let any = |f: fn(GatherKernel) -> bool| GatherKernel::ALL.iter().any(|&k| wanted(k) && f(k));
         let (need_points, need_segments) = (any(|k| k.on_surfaces()), any(|k| !k.on_surfaces()));
-        let (need_vpls, need_vrls) = (any(|k| k.from_vpls()), any(|k| !k.from_vpls()));
+        let (need_vpls, need_vrls) = (any(|k| k.reads_vpls()), any(|k| !k.reads_vpls()));
         let points = compute::storage(
             gpu,
             "shading points",
@@ -217,7 +217,7 @@ impl Gathers {
             } else {
                 inputs.media_segments.len()
             };
-            let lights = if k.from_vpls() {
+            let lights = if k.reads_vpls() {
                 inputs.vpls.len()
             } else {
                 inputs.vrls.len()

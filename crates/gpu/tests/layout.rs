@@ -3,9 +3,11 @@
 use beamlight_gpu::{layout::*, shaders};
 use std::collections::HashMap;
 
+/// A WGSL struct as naga lays it out: size, alignment, and (member, offset) in order.
+type StructLayout = (u32, u32, Vec<(String, u32)>);
+
 struct Wgsl {
-    /// name → (size, alignment, [(member, offset)])
-    structs: HashMap<String, (u32, u32, Vec<(String, u32)>)>,
+    structs: HashMap<String, StructLayout>,
 }
 
 fn parse(kernel: &str) -> Wgsl {
@@ -72,4 +74,19 @@ fn scene_structs_match() {
     check!(w, Ray, [o, tmax, d, any_hit]);
     check!(w, Hit, [t, tri, b1, b2]);
     check!(w, RayBatch, [count, row, _pad0, _pad1]);
+}
+
+#[test]
+fn gather_structs_match() {
+    use beamlight_trace::{
+        camera_paths::{MediaSegment, ShadingPoint},
+        light_paths::{LightSegment, SurfaceVertex},
+    };
+    let w = parse("vpl_surface.wgsl");
+    check!(w, Bsdf, [diffuse, exponent, specular, kind]);
+    check!(w, GatherParams, [pair_seed, pass_index, records, lights, row, clamp, scale, _pad]);
+    check!(w, ShadingPoint, [pos, material, normal, tri, wo, pixel, throughput, medium, uv, _pad2]);
+    check!(w, MediaSegment, [origin, length, dir, medium, throughput, pixel]);
+    check!(w, SurfaceVertex, [pos, material, normal, tri, wi, u, power, v]);
+    check!(w, LightSegment, [origin, length, dir, medium, power, flags]);
 }

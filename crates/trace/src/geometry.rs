@@ -123,9 +123,19 @@ pub fn interpolation_error(tri: &[Vec3; 3], b1: f32, b2: f32) -> Vec3 {
     ((tri[0] * (1.0 - b1 - b2)).abs() + (tri[1] * b1).abs() + (tri[2] * b2).abs()) * INTERPOLATION_ERROR
 }
 
-/// An error bound valid for any point of the triangle: Σ|bᵢ pᵢ| ≤ maxᵢ |pᵢ| per axis.
+/// An error bound valid for any point of the triangle, for points known only by position
+/// (recorded gather points and light vertices, which were computed by ray intersection or
+/// sampling, not by the exact interpolation of [`interpolation_error`]): Σ|bᵢ pᵢ| ≤ maxᵢ |pᵢ|
+/// per axis, plus the triangle's extent on every axis. The extent term keeps the bound away
+/// from zero on an axis where all vertices sit at coordinate 0 (an axis-aligned wall through
+/// the origin): without it such a point is not moved at all, and a shadow ray ending there
+/// hits its own triangle at t = tmax up to rounding, so whether it counts as blocked depends
+/// on the last bit (and differs between the CPU and the GPU, which fuses multiply-adds).
 pub fn triangle_error_bound(tri: &[Vec3; 3]) -> Vec3 {
-    (tri[0].abs().max(tri[1].abs()).max(tri[2].abs())) * INTERPOLATION_ERROR
+    let lo = tri[0].min(tri[1]).min(tri[2]);
+    let hi = tri[0].max(tri[1]).max(tri[2]);
+    let extent = (hi - lo).max_element();
+    (tri[0].abs().max(tri[1].abs()).max(tri[2].abs()) + Vec3::splat(extent)) * INTERPOLATION_ERROR
 }
 
 /// Moves the surface point `p` (with per-axis error bound `p_error`) along `n` — the geometric
