@@ -221,12 +221,7 @@ fn bad_command_lines_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let scene = root().join("assets/scenes/cornell.toml");
     let out = dir.path().join("x.exr");
-    for extra in [
-        &["--spp", "0"][..],
-        &["--time=-1"],
-        &["--width", "0"],
-        &["--backend", "gpu"],
-    ] {
+    for extra in [&["--spp", "0"][..], &["--time=-1"], &["--width", "0"]] {
         let o = render(&scene, &out, extra);
         assert_eq!(o.status.code(), Some(1), "{extra:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"));
@@ -473,4 +468,80 @@ fn vrl_renders_the_fog_box_and_a_caustic_scene_with_their_components() {
         assert!(layer.mean().max_element() > 0.0, "{name} must not be black");
         assert!(layer.pixels.iter().all(|p| p.is_finite()));
     }
+}
+
+/// `--backend gpu` needs a Vulkan adapter and says how to get one; `auto` falls back to the
+/// CPU and says so; with an adapter, `gpu` runs the VRL/VPL gathers there.
+#[test]
+fn backend_choice_with_and_without_an_adapter() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("assets/scenes/cornell_fog.toml");
+    let out = dir.path().join("x.exr");
+    let args = |backend: &'static str| -> Vec<String> {
+        [
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "vrl",
+            "--passes",
+            "1",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain(
+            [
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--light-paths",
+                "4",
+                "--backend",
+                backend,
+            ]
+            .map(String::from),
+        )
+        .collect()
+    };
+    // The Vulkan loader finds no driver when pointed at a manifest that does not exist.
+    let without_adapter = |backend| {
+        Command::new(env!("CARGO_BIN_EXE_beamlight"))
+            .args(args(backend))
+            .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+            .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+            .output()
+            .unwrap()
+    };
+    let o = without_adapter("gpu");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no Vulkan adapter") && stderr(&o).contains("mesa-vulkan-drivers"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+    let o = without_adapter("auto");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("backend cpu (no Vulkan adapter)"), "{}", stderr(&o));
+    if beamlight_gpu::device::adapters().is_empty() {
+        assert!(
+            !beamlight_gpu::device::required_by_environment(),
+            "CI=true and no Vulkan adapter"
+        );
+        eprintln!("skipping the with-adapter half: no Vulkan adapter (apt-get install mesa-vulkan-drivers)");
+        return;
+    }
+    let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(args("gpu"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("backend gpu (") && stderr(&o).contains("VRL/VPL gathers"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(out.exists());
 }

@@ -549,6 +549,18 @@ fn info(path: &Path) -> Result<()> {
         .map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
     outln!(out, "camera in   {cam_medium}");
     let adapters = beamlight_gpu::device::adapters();
+    outln!(
+        out,
+        "backend     {}",
+        match adapters.first() {
+            None => "cpu: no Vulkan adapter".to_string(),
+            Some(a) if beamlight_gpu::device::is_cpu_adapter(a) => format!(
+                "cpu for `auto` ({} is a CPU adapter); `--backend gpu` runs the VRL/VPL gathers there",
+                a.name
+            ),
+            Some(a) => format!("gpu for the VRL/VPL gathers of `vrl` and `vrl-clamped` ({})", a.name),
+        }
+    );
     if adapters.is_empty() {
         outln!(out, "gpu         none (no Vulkan adapter: the gathers run on the CPU)");
     }

@@ -84,8 +84,16 @@ fn gather_structs_match() {
     };
     let w = parse("vpl_surface.wgsl");
     check!(w, Bsdf, [diffuse, exponent, specular, kind]);
-    check!(w, GatherParams, [pair_seed, pass_index, records, lights, row, clamp, scale, _pad]);
-    check!(w, ShadingPoint, [pos, material, normal, tri, wo, pixel, throughput, medium, uv, _pad2]);
+    check!(
+        w,
+        GatherParams,
+        [pair_seed, pass_index, records, lights, row, clamp, scale, _pad]
+    );
+    check!(
+        w,
+        ShadingPoint,
+        [pos, material, normal, tri, wo, pixel, throughput, medium, uv, _pad2]
+    );
     check!(w, MediaSegment, [origin, length, dir, medium, throughput, pixel]);
     check!(w, SurfaceVertex, [pos, material, normal, tri, wi, u, power, v]);
     check!(w, LightSegment, [origin, length, dir, medium, power, flags]);
