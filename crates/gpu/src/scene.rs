@@ -2,11 +2,11 @@
 //! flattened from obvhs, triangles in leaf order, per-triangle medium interfaces, and the
 //! media with their density and majorant grids.
 //!
-//! Why a BVH2 rather than the CPU's CWBVH: a binary node is 32 bytes with plain f32 bounds,
-//! traversal needs no quantised-box decoding or child-ordering bit tricks, and a stack of 64
-//! entries covers every tree obvhs builds for scenes of millions of triangles (checked here
-//! against the real depth). On a SIMD CPU adapter like lavapipe the wide node's advantage
-//! (fewer, fatter node fetches) mostly disappears, because each invocation is one SIMD lane.
+//! Why a BVH2 rather than the CPU's CWBVH: a binary node is 32 bytes with plain f32 bounds and
+//! needs no quantised-box decoding, and laid out in depth-first preorder with a skip index per
+//! inner node it is traversed without a stack (`lib/bvh.wgsl`), one node and one box test per
+//! step, whatever the tree's depth. On a SIMD CPU adapter like lavapipe each invocation is one
+//! lane, so a wide node's advantage (fewer, fatter node fetches) mostly disappears anyway.
 use crate::{
     Gpu, GpuError,
     compute::{self, Slot},
@@ -15,17 +15,14 @@ use crate::{
 use beamlight_scene::Scene;
 use obvhs::{BvhBuildParams, bvh2::Bvh2, triangle::Triangle as ObvhsTriangle};
 
-/// Traversal stack entries in `lib/bvh.wgsl` (`STACK_SIZE`).
-pub const STACK_SIZE: u32 = 64;
-
-/// The flattened BVH2 and leaf-ordered triangles, before upload.
+/// The flattened BVH2 and leaf-ordered triangles, before upload. `nodes` are in depth-first
+/// preorder: an inner node's first child follows it, and its `first` is the index just past
+/// its subtree (where traversal goes when its box is missed).
 pub struct FlatBvh {
     pub nodes: Vec<BvhNode>,
     pub triangles: Vec<layout::Triangle>,
     /// `leaf_slot[i]`: where scene triangle `i` sits in `triangles`.
     pub leaf_slot: Vec<u32>,
-    /// Longest root-to-leaf path (edges).
-    pub depth: u32,
 }
 
 impl FlatBvh {
@@ -35,7 +32,6 @@ impl FlatBvh {
                 nodes: Vec::new(),
                 triangles: Vec::new(),
                 leaf_slot: Vec::new(),
-                depth: 0,
             };
         }
         let prims: Vec<ObvhsTriangle> = positions
@@ -67,38 +63,47 @@ impl FlatBvh {
         for (slot, t) in triangles.iter().enumerate() {
             leaf_slot[t.id as usize] = slot as u32;
         }
-        let nodes: Vec<BvhNode> = bvh
-            .nodes
-            .iter()
-            .map(|n| BvhNode {
-                lo: n.aabb().min.into(),
-                count: n.prim_count,
-                hi: n.aabb().max.into(),
-                first: n.first_index,
-            })
-            .collect();
-        let depth = depth(&nodes);
+        let nodes = preorder(&bvh);
         FlatBvh {
             nodes,
             triangles,
             leaf_slot,
-            depth,
         }
     }
 }
 
-fn depth(nodes: &[BvhNode]) -> u32 {
-    let mut deepest = 0;
-    let mut stack = vec![(0usize, 0u32)];
-    while let Some((i, d)) = stack.pop() {
-        deepest = deepest.max(d);
-        let n = nodes[i];
-        if n.count == 0 {
-            stack.push((n.first as usize, d + 1));
-            stack.push((n.first as usize + 1, d + 1));
+/// obvhs's nodes (children at `first_index` and `first_index + 1`) rewritten in depth-first
+/// preorder with skip indices.
+fn preorder(bvh: &Bvh2) -> Vec<BvhNode> {
+    enum Step {
+        Visit(usize),
+        /// The subtree of the node at this output index is complete: set its skip index.
+        Close(usize),
+    }
+    let mut out: Vec<BvhNode> = Vec::with_capacity(bvh.nodes.len());
+    let mut todo = vec![Step::Visit(0)];
+    while let Some(step) = todo.pop() {
+        match step {
+            Step::Visit(i) => {
+                let n = &bvh.nodes[i];
+                let at = out.len();
+                out.push(BvhNode {
+                    lo: n.aabb().min.into(),
+                    count: n.prim_count,
+                    hi: n.aabb().max.into(),
+                    first: n.first_index,
+                });
+                if n.prim_count == 0 {
+                    let left = n.first_index as usize;
+                    todo.push(Step::Close(at));
+                    todo.push(Step::Visit(left + 1));
+                    todo.push(Step::Visit(left));
+                }
+            }
+            Step::Close(at) => out[at].first = out.len() as u32,
         }
     }
-    deepest
+    out
 }
 
 /// The scene's buffers and bind group (group 0 of the tracing kernels).
@@ -132,7 +137,6 @@ impl GpuScene {
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Result<GpuScene, GpuError> {
         let positions: Vec<[glam::Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
         let bvh = FlatBvh::build(&positions);
-        check_depth(&bvh)?;
         let mut has_null_interfaces = false;
         let info: Vec<TriangleInfo> = scene
             .triangles
@@ -182,7 +186,6 @@ impl GpuScene {
     /// Bare geometry: opaque triangles, no media (ray-query tests and benchmarks).
     pub fn geometry_only(gpu: &Gpu, positions: &[[glam::Vec3; 3]]) -> Result<GpuScene, GpuError> {
         let bvh = FlatBvh::build(positions);
-        check_depth(&bvh)?;
         let info: Vec<TriangleInfo> = bvh
             .leaf_slot
             .iter()
@@ -229,15 +232,4 @@ impl GpuScene {
             bytes,
         })
     }
-}
-
-fn check_depth(bvh: &FlatBvh) -> Result<(), GpuError> {
-    if bvh.depth >= STACK_SIZE {
-        return Err(GpuError::Limit {
-            what: "the BVH's depth (traversal stack entries)",
-            needed: bvh.depth as u64 + 1,
-            allowed: STACK_SIZE as u64,
-        });
-    }
-    Ok(())
 }
