@@ -64,8 +64,20 @@ struct GatherParams {
     clamp: f32,
     // 1 / light paths traced: a set's sum times this is the per-pass estimate.
     scale: f32,
-    _pad: u32,
+    // The `vbl` kernels' settings: the pass's squared radius R², and `VblSettings`.
+    radius2: f32,
+    directions: u32,
+    pdf_vertices: u32,
+    uniform_share: f32,
+    // ANGULAR_PDF_VBL or ANGULAR_PDF_VRL.
+    angular_pdf: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
+
+const ANGULAR_PDF_VBL: u32 = 0u;
+const ANGULAR_PDF_VRL: u32 = 1u;
 
 @group(1) @binding(0) var<uniform> params: GatherParams;
 @group(1) @binding(1) var<storage, read> shading_points: array<ShadingPoint>;

@@ -4,7 +4,7 @@ use beamlight_gpu::{Gpu, GpuBackend, gather::GatherKernel};
 use beamlight_render::{
     Budget, Film, Method, RenderOptions, compare,
     components::{Component, SceneFeatures},
-    many_lights::{ManyLightSettings, PassTimes},
+    many_lights::{self, ManyLightSettings, PassTimes, VirtualLights},
     output,
 };
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
@@ -304,16 +304,25 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
 /// Picks the device for the gathers (`--backend`) and says what runs where. `gpu` needs a
 /// Vulkan adapter; `auto` takes one when the method has GPU kernels and falls back to the CPU.
 fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(Option<Arc<GpuBackend>>, String)> {
-    let has_kernels = matches!(method, Method::Vrl | Method::VrlClamped);
+    let has_kernels = match method {
+        Method::Pt => false,
+        Method::Vbl => many_lights::gpu_has_kernels(VirtualLights::Beams),
+        Method::Vrl | Method::VrlClamped => many_lights::gpu_has_kernels(VirtualLights::Rays),
+    };
+    let gathers = if method == Method::Vbl {
+        "VBL/VSL gathers"
+    } else {
+        "VRL/VPL gathers"
+    };
     let open = || GpuBackend::open(&ts.scene).map(Arc::new);
     Ok(match arg {
         BackendArg::Cpu => (None, "cpu".to_string()),
         BackendArg::Gpu => {
             let g = open().map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
             let what = if has_kernels {
-                "VRL/VPL gathers; tracing, direct light and caustics on the CPU"
+                format!("{gathers}; tracing, direct light and caustics on the CPU")
             } else {
-                "idle: this method has no GPU kernels yet and runs on the CPU"
+                "idle: this method has no GPU kernels yet and runs on the CPU".to_string()
             };
             let name = format!("gpu ({}: {what})", g.gpu.describe());
             (has_kernels.then_some(g), name)
@@ -332,7 +341,7 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
             ),
             Some(_) => match open() {
                 Ok(g) => {
-                    let name = format!("gpu ({}: VRL/VPL gathers)", g.gpu.describe());
+                    let name = format!("gpu ({}: {gathers})", g.gpu.describe());
                     (Some(g), name)
                 }
                 Err(e) => (None, format!("cpu ({e})")),

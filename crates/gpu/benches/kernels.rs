@@ -15,6 +15,7 @@ use beamlight_trace::{
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
     streams::{self, GatherKind},
+    vbl::{self, VblSettings},
     vpl, vrl,
 };
 use glam::Vec3;
@@ -99,6 +100,10 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
     let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed, pass);
     let lights = trace_light_paths(ts, &LightTracerSettings::default(), 64, seed, pass);
     let pair_seed = streams::pair_seed(seed);
+    // The default first-pass VBL radius (10 % of the diagonal, × 64^((α−1)/2) for 64 paths).
+    let (lo, hi) = ts.scene.bounds();
+    let radius2 = (0.1 * (hi - lo).length() * 0.535f32).powi(2);
+    let vbl = VblSettings::default();
     let inputs = GatherInputs {
         shading_points: &gather.shading_points,
         media_segments: &gather.media_segments,
@@ -108,13 +113,32 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
         pair_seed,
         pass,
         clamp: 0.0,
+        radius2,
+        vbl,
     };
-    b.gathers.run(&b.gpu, &b.scene, &ts.scene, &inputs, [true; 4]).unwrap(); // warm-up
-    let g = b.gathers.run(&b.gpu, &b.scene, &ts.scene, &inputs, [true; 4]).unwrap();
+    b.gathers
+        .run(
+            &b.gpu,
+            &b.scene,
+            &ts.scene,
+            &inputs,
+            [true; beamlight_gpu::gather::KERNELS],
+        )
+        .unwrap(); // warm-up
+    let g = b
+        .gathers
+        .run(
+            &b.gpu,
+            &b.scene,
+            &ts.scene,
+            &inputs,
+            [true; beamlight_gpu::gather::KERNELS],
+        )
+        .unwrap();
     let pair = |kind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
     let sps = &gather.shading_points;
     let segs = &gather.media_segments;
-    for k in GatherKernel::ALL {
+    for k in GatherKernel::ALL.into_iter().filter(|k| k.available()) {
         let clock = Instant::now();
         let total: Rgb = match k {
             GatherKernel::VplSurface => sps
@@ -153,6 +177,18 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
                         .sum::<Rgb>()
                 })
                 .sum(),
+            GatherKernel::VslSurface => sum_over(sps, &lights.vpls, |i, sp, j, v| {
+                vbl::vsl_to_surface(ts, sp, v, radius2, &vbl, &mut pair(GatherKind::VplToSurface, i, j))
+            }),
+            GatherKernel::VblSurface => sum_over(sps, &lights.vrls, |i, sp, j, v| {
+                vbl::vbl_to_surface(ts, sp, v, radius2, &vbl, &mut pair(GatherKind::VrlToSurface, i, j))
+            }),
+            GatherKernel::VslMedia => sum_over(segs, &lights.vpls, |i, seg, j, v| {
+                vbl::vsl_to_media(ts, seg, v, radius2, &vbl, &mut pair(GatherKind::VplToMedia, i, j))
+            }),
+            GatherKernel::VblMedia => sum_over(segs, &lights.vrls, |i, seg, j, v| {
+                vbl::vbl_to_media(ts, seg, v, radius2, &vbl, &mut pair(GatherKind::VrlToMedia, i, j))
+            }),
         };
         let cpu = clock.elapsed().as_secs_f64();
         std::hint::black_box(total);
@@ -173,6 +209,15 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
             cpu,
         );
     }
+}
+
+/// Σ over records (in parallel) and lights of `f(record index, record, light index, light)`.
+fn sum_over<R: Sync, L: Sync>(records: &[R], lights: &[L], f: impl Fn(usize, &R, usize, &L) -> Rgb + Sync) -> Rgb {
+    records
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| lights.iter().enumerate().map(|(j, l)| f(i, r, j, l)).sum::<Rgb>())
+        .sum()
 }
 
 fn report(what: &str, n: f64, gpu: f64, cpu: f64) {

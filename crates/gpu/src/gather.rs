@@ -5,16 +5,18 @@
 use crate::{
     Gpu, GpuError, GpuScene,
     compute::{self, Kernel, Slot, Timer},
-    layout::{self, BSDF_LAMBERT, BSDF_NONE, BSDF_PHONG, GatherParams},
+    layout::{self, ANGULAR_PDF_VBL, ANGULAR_PDF_VRL, BSDF_LAMBERT, BSDF_NONE, BSDF_PHONG, GatherParams},
 };
 use beamlight_scene::{Rgb, Scene, bsdf};
 use beamlight_trace::{
     camera_paths::{MediaSegment, ShadingPoint},
     light_paths::{LightSegment, SurfaceVertex},
+    vbl::{AngularPdf, VblSettings},
 };
 use glam::Vec2;
 
-/// The gather kernels, in [`GatherKernel`] order.
+/// The gather kernels: a transport component times a method (the `vrl` family's virtual
+/// ray/point lights, or `vbl`'s virtual beam/spherical lights of the pass's radius).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GatherKernel {
     /// `Lss`: VPLs at shading points.
@@ -25,10 +27,34 @@ pub enum GatherKernel {
     VplMedia,
     /// `Lmm`: VRLs along camera media segments.
     VrlMedia,
+    /// `Lss`: VSLs at shading points.
+    VslSurface,
+    /// `Lsm`: VBLs at shading points.
+    VblSurface,
+    /// `Lms`: VSLs along camera media segments.
+    VslMedia,
+    /// `Lmm`: VBLs along camera media segments.
+    VblMedia,
 }
 
+/// Kernels in a [`Gathered`] result: every [`GatherKernel`].
+pub const KERNELS: usize = 8;
+
 impl GatherKernel {
-    pub const ALL: [GatherKernel; 4] = [Self::VplSurface, Self::VrlSurface, Self::VplMedia, Self::VrlMedia];
+    pub const ALL: [GatherKernel; KERNELS] = [
+        Self::VplSurface,
+        Self::VrlSurface,
+        Self::VplMedia,
+        Self::VrlMedia,
+        Self::VslSurface,
+        Self::VblSurface,
+        Self::VslMedia,
+        Self::VblMedia,
+    ];
+    /// The `vrl`/`vrl-clamped` kernels, in (Lss, Lsm, Lms, Lmm) order.
+    pub const RAYS: [GatherKernel; 4] = [Self::VplSurface, Self::VrlSurface, Self::VplMedia, Self::VrlMedia];
+    /// The `vbl` kernels, in (Lss, Lsm, Lms, Lmm) order.
+    pub const BEAMS: [GatherKernel; 4] = [Self::VslSurface, Self::VblSurface, Self::VslMedia, Self::VblMedia];
 
     pub fn file(self) -> &'static str {
         match self {
@@ -36,6 +62,10 @@ impl GatherKernel {
             Self::VrlSurface => "vrl_surface.wgsl",
             Self::VplMedia => "vpl_media.wgsl",
             Self::VrlMedia => "vrl_media.wgsl",
+            Self::VslSurface => "vsl_surface.wgsl",
+            Self::VblSurface => "vbl_surface.wgsl",
+            Self::VslMedia => "vsl_media.wgsl",
+            Self::VblMedia => "vbl_media.wgsl",
         }
     }
 
@@ -45,15 +75,30 @@ impl GatherKernel {
             Self::VrlSurface => "Lsm (VRL)",
             Self::VplMedia => "Lms (VPL)",
             Self::VrlMedia => "Lmm (VRL)",
+            Self::VslSurface => "Lss (VSL)",
+            Self::VblSurface => "Lsm (VBL)",
+            Self::VslMedia => "Lms (VSL)",
+            Self::VblMedia => "Lmm (VBL)",
         }
     }
 
-    fn on_surfaces(self) -> bool {
-        matches!(self, Self::VplSurface | Self::VrlSurface)
+    pub fn on_surfaces(self) -> bool {
+        matches!(
+            self,
+            Self::VplSurface | Self::VrlSurface | Self::VslSurface | Self::VblSurface
+        )
     }
 
-    fn reads_vpls(self) -> bool {
-        matches!(self, Self::VplSurface | Self::VplMedia)
+    pub fn reads_vpls(self) -> bool {
+        matches!(
+            self,
+            Self::VplSurface | Self::VplMedia | Self::VslSurface | Self::VslMedia
+        )
+    }
+
+    /// Whether the kernel exists yet (the `vbl` ones are being ported).
+    pub fn available(self) -> bool {
+        crate::shaders::SOURCES.iter().any(|(n, _)| *n == self.file())
     }
 }
 
@@ -99,18 +144,23 @@ pub struct GatherInputs<'a> {
     pub pass: u32,
     /// Minimum distance of the 1/d² falloff (0: unclamped).
     pub clamp: f32,
+    /// The pass's squared VBL/VSL radius (the `vbl` kernels).
+    pub radius2: f32,
+    /// The VBL/VSL estimators' settings (the `vbl` kernels).
+    pub vbl: VblSettings,
 }
 
 /// Per gather record, each kernel's estimate (empty for kernels not run), and the GPU time
 /// each kernel took (0 without timestamp queries or when not run).
 #[derive(Clone, Debug, Default)]
 pub struct Gathered {
-    pub results: [Vec<Rgb>; 4],
-    pub kernel_seconds: [f64; 4],
+    pub results: [Vec<Rgb>; KERNELS],
+    pub kernel_seconds: [f64; KERNELS],
 }
 
 pub struct Gathers {
-    kernels: Vec<Kernel>,
+    /// Indexed by [`GatherKernel`]; `None` for kernels not written yet.
+    kernels: Vec<Option<Kernel>>,
 }
 
 /// The slots of bind group 1 (see `lib/gather.wgsl`).
@@ -130,7 +180,11 @@ impl Gathers {
         let layout = compute::bind_group_layout(gpu, "gather", &GATHER_SLOTS);
         let kernels = GatherKernel::ALL
             .iter()
-            .map(|k| Kernel::new(gpu, k.file(), vec![scene.layout.clone(), layout.clone()]))
+            .map(|k| {
+                k.available()
+                    .then(|| Kernel::new(gpu, k.file(), vec![scene.layout.clone(), layout.clone()]))
+                    .transpose()
+            })
             .collect::<Result<_, _>>()?;
         Ok(Gathers { kernels })
     }
@@ -142,7 +196,7 @@ impl Gathers {
         scene: &GpuScene,
         ts_scene: &Scene,
         inputs: &GatherInputs,
-        run: [bool; 4],
+        run: [bool; KERNELS],
     ) -> Result<Gathered, GpuError> {
         self.submit(gpu, scene, ts_scene, inputs, run)?.finish(gpu)
     }
@@ -155,7 +209,7 @@ impl Gathers {
         scene: &GpuScene,
         ts_scene: &Scene,
         inputs: &GatherInputs,
-        run: [bool; 4],
+        run: [bool; KERNELS],
     ) -> Result<PendingGathers, GpuError> {
         let wanted = |k: GatherKernel| {
             let records = if k.on_surfaces() {
@@ -168,7 +222,7 @@ impl Gathers {
             } else {
                 inputs.vrls.len()
             };
-            run[k as usize] && records > 0 && lights > 0
+            run[k as usize] && self.kernels[k as usize].is_some() && records > 0 && lights > 0
         };
         // Upload only what a dispatched kernel reads.
         let any = |f: fn(GatherKernel) -> bool| GatherKernel::ALL.iter().any(|&k| wanted(k) && f(k));
@@ -207,7 +261,7 @@ impl Gathers {
         let vpl_bsdfs = compute::storage(gpu, "VPL BSDFs", &vpl_bsdfs)?;
         let vrls = compute::storage(gpu, "VRLs", if need_vrls { inputs.vrls } else { &[] })?;
 
-        let mut timer = Timer::new(gpu, 4);
+        let mut timer = Timer::new(gpu, KERNELS as u32);
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let mut outputs: Vec<(GatherKernel, wgpu::Buffer, usize)> = Vec::new();
         let mut timed = Vec::new();
@@ -231,11 +285,19 @@ impl Gathers {
                 row,
                 clamp: inputs.clamp,
                 scale: 1.0 / inputs.paths.max(1) as f32,
-                _pad: 0,
+                radius2: inputs.radius2,
+                directions: inputs.vbl.directions,
+                pdf_vertices: inputs.vbl.pdf_vertices,
+                uniform_share: inputs.vbl.uniform_share,
+                angular_pdf: match inputs.vbl.pdf {
+                    AngularPdf::Vbl => ANGULAR_PDF_VBL,
+                    AngularPdf::Vrl => ANGULAR_PDF_VRL,
+                },
+                ..Default::default()
             };
             let params = compute::uniform(gpu, "gather params", &params);
             let out = compute::output::<[f32; 4]>(gpu, "gathered", records)?;
-            let kernel = &self.kernels[k as usize];
+            let kernel = self.kernels[k as usize].as_ref().expect("wanted kernels exist");
             let group = compute::bind_group(
                 gpu,
                 kernel.name,

@@ -144,5 +144,22 @@ pub struct GatherParams {
     pub clamp: f32,
     /// 1 / light paths traced.
     pub scale: f32,
-    pub _pad: u32,
+    /// The pass's squared VBL/VSL radius R² (the `vbl` kernels only).
+    pub radius2: f32,
+    /// `VblSettings::directions`.
+    pub directions: u32,
+    /// `VblSettings::pdf_vertices`.
+    pub pdf_vertices: u32,
+    /// `VblSettings::uniform_share`.
+    pub uniform_share: f32,
+    /// `VblSettings::pdf`: [`ANGULAR_PDF_VBL`] or [`ANGULAR_PDF_VRL`].
+    pub angular_pdf: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
+
+/// `GatherParams::angular_pdf`: the paper's vertex values (at ω'_max).
+pub const ANGULAR_PDF_VBL: u32 = 0;
+/// `GatherParams::angular_pdf`: the VRL paper's vertex values (at the cone's axis).
+pub const ANGULAR_PDF_VRL: u32 = 1;

@@ -87,7 +87,23 @@ fn gather_structs_match() {
     check!(
         w,
         GatherParams,
-        [pair_seed, pass_index, records, lights, row, clamp, scale, _pad]
+        [
+            pair_seed,
+            pass_index,
+            records,
+            lights,
+            row,
+            clamp,
+            scale,
+            radius2,
+            directions,
+            pdf_vertices,
+            uniform_share,
+            angular_pdf,
+            _pad0,
+            _pad1,
+            _pad2
+        ]
     );
     check!(
         w,

@@ -10,7 +10,7 @@
 use crate::radius::squared_radius;
 use beamlight_gpu::{
     GpuBackend, GpuError,
-    gather::{GatherInputs, GatherKernel},
+    gather::{GatherInputs, GatherKernel, KERNELS},
 };
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
@@ -128,12 +128,25 @@ pub struct PassTimes {
     /// Waiting for the GPU's results after the CPU's own share was done.
     pub gpu_wait: Duration,
     /// GPU kernel time, per gather kernel ([`beamlight_gpu::gather::GatherKernel`] order).
-    pub kernels: [f64; 4],
+    pub kernels: [f64; KERNELS],
+}
+
+/// The GPU kernels of these settings' method, in (Lss, Lsm, Lms, Lmm) order.
+pub fn gpu_kernels(lights: VirtualLights) -> [GatherKernel; 4] {
+    match lights {
+        VirtualLights::Rays => GatherKernel::RAYS,
+        VirtualLights::Beams => GatherKernel::BEAMS,
+    }
+}
+
+/// Whether the GPU has every gather kernel of this method.
+pub fn gpu_has_kernels(lights: VirtualLights) -> bool {
+    gpu_kernels(lights).iter().all(|k| k.available())
 }
 
 /// Renders one pass: `out[c][pixel]` receives component `c`'s estimate for each pixel. With
-/// `gpu`, the VRL/VPL gathers run there while the CPU computes direct light and caustics;
-/// VBL/VSL gathers have no GPU kernels yet and stay on the CPU.
+/// `gpu` (and kernels for the method, [`gpu_has_kernels`]), the four virtual-light gathers run
+/// there while the CPU computes direct light and caustics.
 pub fn many_light_pass(
     ts: &TraceScene,
     settings: &ManyLightSettings,
@@ -161,7 +174,8 @@ pub fn many_light_pass(
     let beams = BeamMap::build(&lights.photon_beams, photon_r2);
     times.trace = clock.elapsed();
     let beams_on = settings.lights == VirtualLights::Beams;
-    let gpu = gpu.filter(|_| !beams_on);
+    let kernels = gpu_kernels(settings.lights);
+    let gpu = gpu.filter(|_| gpu_has_kernels(settings.lights));
     let pair_seed = streams::pair_seed(seed);
     let pending = match gpu {
         Some(g) => Some(g.gathers.submit(
@@ -177,8 +191,10 @@ pub fn many_light_pass(
                 pair_seed,
                 pass,
                 clamp: settings.clamp,
+                radius2: r2,
+                vbl: settings.vbl,
             },
-            [true; 4],
+            std::array::from_fn(|k| kernels.contains(&GatherKernel::ALL[k])),
         )?),
         None => None,
     };
@@ -277,13 +293,8 @@ pub fn many_light_pass(
         let g = pending.finish(&gpu.expect("pending implies a GPU").gpu)?;
         times.gpu_wait = clock.elapsed();
         times.kernels = g.kernel_seconds;
-        let targets = [
-            (GatherKernel::VplSurface, Component::Lss),
-            (GatherKernel::VrlSurface, Component::Lsm),
-            (GatherKernel::VplMedia, Component::Lms),
-            (GatherKernel::VrlMedia, Component::Lmm),
-        ];
-        for (kernel, component) in targets {
+        let components = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
+        for (kernel, component) in kernels.into_iter().zip(components) {
             let values = &g.results[kernel as usize];
             let pixels = gather_pixels(&gather, kernel);
             for (pixel, v) in pixels.zip(values) {
@@ -296,11 +307,10 @@ pub fn many_light_pass(
 
 /// The pixel of each record a gather kernel ran over.
 fn gather_pixels(gather: &GatherSet, kernel: GatherKernel) -> Box<dyn Iterator<Item = u32> + '_> {
-    match kernel {
-        GatherKernel::VplSurface | GatherKernel::VrlSurface => {
-            Box::new(gather.shading_points.iter().map(|sp| sp.pixel))
-        }
-        GatherKernel::VplMedia | GatherKernel::VrlMedia => Box::new(gather.media_segments.iter().map(|seg| seg.pixel)),
+    if kernel.on_surfaces() {
+        Box::new(gather.shading_points.iter().map(|sp| sp.pixel))
+    } else {
+        Box::new(gather.media_segments.iter().map(|seg| seg.pixel))
     }
 }
 
