@@ -10,12 +10,12 @@
 use crate::radius::squared_radius;
 use beamlight_gpu::{
     GpuBackend, GpuError,
-    gather::{GatherInputs, GatherKernel, KERNELS},
+    gather::{GatherInputs, GatherKernel, KERNELS, PendingGathers},
 };
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
-    camera_paths::{CameraPathSettings, GatherSet, trace_camera_paths},
+    camera_paths::{CameraPathSettings, trace_camera_paths},
     caustics::{BeamMap, PhotonMap},
     components::Component,
     direct,
@@ -157,6 +157,65 @@ pub fn many_light_pass(
     out: &mut [Vec<Rgb>; N],
     gpu: Option<&GpuBackend>,
 ) -> Result<PassTimes, GpuError> {
+    let in_flight = start_pass(ts, settings, w, h, seed, pass, gpu)?;
+    in_flight.finish(gpu, out)
+}
+
+/// A pass whose CPU share is done and whose GPU gathers may still be running: the
+/// orchestrator starts the next pass's tracing before it waits for this one
+/// ([`crate::progressive`] keeps one pass in flight).
+pub struct PassInFlight {
+    pub pass: u32,
+    /// The CPU's estimates (every component on the CPU backend).
+    out: [Vec<Rgb>; N],
+    pending: Option<PendingGathers>,
+    kernels: [GatherKernel; 4],
+    /// The pixel of each shading point and each media segment, for the GPU's results.
+    point_pixels: Vec<u32>,
+    segment_pixels: Vec<u32>,
+    times: PassTimes,
+}
+
+impl PassInFlight {
+    /// Waits for the pass's GPU gathers (if any) and writes the whole pass into `out`.
+    pub fn finish(mut self, gpu: Option<&GpuBackend>, out: &mut [Vec<Rgb>; N]) -> Result<PassTimes, GpuError> {
+        if let Some(pending) = self.pending {
+            let gpu = gpu.expect("a pass with GPU work needs its GPU to finish");
+            let clock = Instant::now();
+            let g = pending.finish(&gpu.gpu)?;
+            self.times.gpu_wait = clock.elapsed();
+            self.times.kernels = g.kernel_seconds;
+            let components = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
+            for (kernel, component) in self.kernels.into_iter().zip(components) {
+                let pixels = if kernel.on_surfaces() {
+                    &self.point_pixels
+                } else {
+                    &self.segment_pixels
+                };
+                for (&pixel, v) in pixels.iter().zip(&g.results[kernel as usize]) {
+                    self.out[component as usize][pixel as usize] += *v;
+                }
+            }
+        }
+        for (dst, src) in out.iter_mut().zip(&self.out) {
+            dst.copy_from_slice(src);
+        }
+        Ok(self.times)
+    }
+}
+
+/// Traces pass `pass`, submits its gathers to `gpu` (when it has the method's kernels) and
+/// computes the rest on the CPU while the GPU works; [`PassInFlight::finish`] completes it.
+pub fn start_pass(
+    ts: &TraceScene,
+    settings: &ManyLightSettings,
+    w: u32,
+    h: u32,
+    seed: u32,
+    pass: u32,
+    gpu: Option<&GpuBackend>,
+) -> Result<PassInFlight, GpuError> {
+    let mut out: [Vec<Rgb>; N] = std::array::from_fn(|_| vec![Rgb::ZERO; (w * h) as usize]);
     let mut times = PassTimes::default();
     let clock = Instant::now();
     let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed, pass);
@@ -199,9 +258,6 @@ pub fn many_light_pass(
         None => None,
     };
     let clock = Instant::now();
-    for buffer in out.iter_mut() {
-        buffer.iter_mut().for_each(|v| *v = Rgb::ZERO);
-    }
     out[Component::Direct as usize].copy_from_slice(&gather.emitted);
     // Direct light and caustics keep one stream per record; each (record, virtual light) pair
     // has its own ([`streams`]), which the GPU kernels draw from too.
@@ -288,30 +344,15 @@ pub fn many_light_pass(
         }
     }
     times.cpu_estimates = clock.elapsed();
-    if let Some(pending) = pending {
-        let clock = Instant::now();
-        let g = pending.finish(&gpu.expect("pending implies a GPU").gpu)?;
-        times.gpu_wait = clock.elapsed();
-        times.kernels = g.kernel_seconds;
-        let components = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
-        for (kernel, component) in kernels.into_iter().zip(components) {
-            let values = &g.results[kernel as usize];
-            let pixels = gather_pixels(&gather, kernel);
-            for (pixel, v) in pixels.zip(values) {
-                out[component as usize][pixel as usize] += *v;
-            }
-        }
-    }
-    Ok(times)
-}
-
-/// The pixel of each record a gather kernel ran over.
-fn gather_pixels(gather: &GatherSet, kernel: GatherKernel) -> Box<dyn Iterator<Item = u32> + '_> {
-    if kernel.on_surfaces() {
-        Box::new(gather.shading_points.iter().map(|sp| sp.pixel))
-    } else {
-        Box::new(gather.media_segments.iter().map(|seg| seg.pixel))
-    }
+    Ok(PassInFlight {
+        pass,
+        out,
+        pending,
+        kernels,
+        point_pixels: gather.shading_points.iter().map(|sp| sp.pixel).collect(),
+        segment_pixels: gather.media_segments.iter().map(|seg| seg.pixel).collect(),
+        times,
+    })
 }
 
 /// Σ over a light set of each virtual light's contribution, `f(index, light)`.

@@ -2,7 +2,7 @@
 //! `(scene, settings, seed, pass index)`, averaged into a [`Film`] until the budget runs out.
 use crate::{
     Film,
-    many_lights::{self, ManyLightSettings, PassTimes, VirtualLights},
+    many_lights::{self, ManyLightSettings, PassInFlight, PassTimes, VirtualLights},
 };
 use beamlight_gpu::GpuBackend;
 use beamlight_scene::{Rgb, rng::Sampler};
@@ -137,20 +137,27 @@ pub fn render(
     };
     let mut passes = 0u64;
     let mut pass_times = Vec::new();
+    // Passes started; with the many-light methods one pass is in flight (its GPU gathers
+    // running) while the next one is traced and estimated on the CPU.
+    let mut started_passes = 0u64;
+    let mut in_flight: Option<PassInFlight> = None;
+    let gpu = opts.gpu.as_deref();
     loop {
-        match opts.budget {
-            Budget::Passes(n) if passes >= n => break,
-            Budget::Time(limit) if passes > 0 => {
-                // Stop if the next pass (estimated as the mean so far) would overrun the budget.
-                let mean = started.elapsed() / passes as u32;
-                if opts.start.elapsed() + mean > limit {
-                    break;
-                }
+        let start_another = match opts.budget {
+            Budget::Passes(n) => started_passes < n,
+            Budget::Time(_) if started_passes == 0 => true,
+            Budget::Time(limit) => {
+                // Start a pass only if it (estimated as the mean so far) fits in the budget.
+                let mean = started.elapsed() / started_passes as u32;
+                opts.start.elapsed() + mean <= limit
             }
-            _ => {}
-        }
-        let pass = (opts.first_pass + passes) as u32;
+        };
+        let pass = (opts.first_pass + started_passes) as u32;
         if opts.method == Method::Pt {
+            if !start_another {
+                break;
+            }
+            started_passes += 1;
             path_trace_pass(
                 ts,
                 &opts.path_tracer,
@@ -162,17 +169,25 @@ pub fn render(
                 &mut component_buffers,
             );
         } else {
-            let times = many_lights::many_light_pass(
-                ts,
-                &many_light_settings,
-                w,
-                h,
-                opts.seed,
-                pass,
-                &mut many_light_buffers,
-                opts.gpu.as_deref(),
-            )
-            .map_err(|e| format!("pass {pass} on the GPU: {e}"))?;
+            let next = if start_another {
+                started_passes += 1;
+                Some(
+                    many_lights::start_pass(ts, &many_light_settings, w, h, opts.seed, pass, gpu)
+                        .map_err(|e| format!("pass {pass} on the GPU: {e}"))?,
+                )
+            } else {
+                None
+            };
+            let Some(done) = std::mem::replace(&mut in_flight, next) else {
+                if in_flight.is_some() {
+                    continue; // the first pass: nothing to finish yet
+                }
+                break;
+            };
+            let done_pass = done.pass;
+            let times = done
+                .finish(gpu, &mut many_light_buffers)
+                .map_err(|e| format!("pass {done_pass} on the GPU: {e}"))?;
             pass_times.push(times);
             for (i, px) in buffer.iter_mut().enumerate() {
                 *px = many_light_buffers.iter().map(|b| b[i]).sum();
@@ -196,6 +211,7 @@ pub fn render(
             elapsed: started.elapsed(),
         });
         if !go_on {
+            // A pass still in flight is dropped unfinished.
             break;
         }
     }
