@@ -138,3 +138,23 @@ fn empty_scene_misses() {
         .hits;
     assert!(hits.iter().all(|h| h.t < 0.0));
 }
+
+/// A scene of two million triangles uploads within lavapipe's limits (128 MiB per storage
+/// binding) and traces like the CPU.
+#[test]
+fn two_million_triangles() {
+    let Some(gpu) = device::for_tests() else { return };
+    let tris = bumpy_sphere(1001, 1.0);
+    assert!(tris.len() >= 2_000_000, "{} triangles", tris.len());
+    let flat = beamlight_gpu::scene::FlatBvh::build(&tris);
+    eprintln!(
+        "{} triangles: {} BVH nodes ({} MiB), triangles {} MiB",
+        tris.len(),
+        flat.nodes.len(),
+        flat.nodes.len() * 32 >> 20,
+        flat.triangles.len() * 48 >> 20
+    );
+    drop(flat);
+    let _ = gpu;
+    compare("two million triangles", tris, 1.0, 20_000, 5);
+}
