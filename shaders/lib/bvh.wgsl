@@ -56,7 +56,7 @@ fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmax_in: f32) -> Hit {
         let entered = box_entry(node.lo, node.hi, o, inv_d, tmax) < NO_ENTRY;
         if entered && node.count > 0u {
             for (var k = node.first; k < node.first + node.count; k++) {
-                let tri = triangles[k];
+                let tri = leaf_triangle(k);
                 let h = intersect_triangle(r, tri.p0, tri.p1, tri.p2, 0.0, tmax);
                 if h.x >= 0.0 {
                     tmax = h.x;
@@ -80,7 +80,7 @@ fn occluded(o: vec3<f32>, d: vec3<f32>, tmax: f32) -> bool {
         let entered = box_entry(node.lo, node.hi, o, inv_d, tmax) < NO_ENTRY;
         if entered && node.count > 0u {
             for (var k = node.first; k < node.first + node.count; k++) {
-                let tri = triangles[k];
+                let tri = leaf_triangle(k);
                 if intersect_triangle(r, tri.p0, tri.p1, tri.p2, 0.0, tmax).x >= 0.0 {
                     blocked = true;
                     break;

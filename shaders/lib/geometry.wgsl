@@ -120,7 +120,7 @@ fn face_towards(ng: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
 
 // The triangle of scene index `id`.
 fn scene_triangle(id: u32) -> Triangle {
-    return triangles[triangle_info[id].leaf_slot];
+    return leaf_triangle(triangle_info[id].leaf_slot);
 }
 
 fn triangle_normal(t: Triangle) -> vec3<f32> {

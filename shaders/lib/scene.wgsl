@@ -60,7 +60,9 @@ struct SceneInfo {
     // 1 when any triangle is a null interface: shadow rays must then walk hits.
     has_null_interfaces: u32,
     medium_count: u32,
-    _pad: u32,
+    // Triangles in `triangles`; the rest are in `triangles_more` (a buffer may not exceed the
+    // adapter's storage-binding limit, 128 MiB on lavapipe: 2.8 M triangles).
+    triangle_split: u32,
 }
 
 @group(0) @binding(0) var<uniform> scene_info: SceneInfo;
@@ -69,3 +71,12 @@ struct SceneInfo {
 @group(0) @binding(3) var<storage, read> triangle_info: array<TriangleInfo>;
 @group(0) @binding(4) var<storage, read> media: array<Medium>;
 @group(0) @binding(5) var<storage, read> grid: array<f32>;
+@group(0) @binding(6) var<storage, read> triangles_more: array<Triangle>;
+
+// Triangle `k` in leaf order, from whichever binding holds it.
+fn leaf_triangle(k: u32) -> Triangle {
+    if k < scene_info.triangle_split {
+        return triangles[k];
+    }
+    return triangles_more[k - scene_info.triangle_split];
+}

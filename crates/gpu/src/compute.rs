@@ -118,12 +118,16 @@ pub fn dispatch_size(gpu: &Gpu, n: u32) -> (u32, u32, u32) {
     }
 }
 
+/// The most bytes one storage binding may hold on this adapter.
+pub fn max_binding(gpu: &Gpu) -> u64 {
+    gpu.limits
+        .max_storage_buffer_binding_size
+        .min(gpu.limits.max_buffer_size)
+}
+
 /// Checks a storage buffer of `bytes` against the adapter's per-binding limit.
 pub fn check_binding(gpu: &Gpu, what: &'static str, bytes: u64) -> Result<(), GpuError> {
-    let allowed = gpu
-        .limits
-        .max_storage_buffer_binding_size
-        .min(gpu.limits.max_buffer_size);
+    let allowed = max_binding(gpu);
     if bytes > allowed {
         return Err(GpuError::Limit {
             what,

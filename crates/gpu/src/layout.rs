@@ -74,7 +74,8 @@ pub struct SceneInfo {
     pub node_count: u32,
     pub has_null_interfaces: u32,
     pub medium_count: u32,
-    pub _pad: u32,
+    /// Leaf-order triangles in the first triangle binding; the rest are in the second.
+    pub triangle_split: u32,
 }
 
 /// A ray query (`Ray` in `trace_rays.wgsl`).

@@ -115,15 +115,13 @@ pub struct GpuScene {
     pub bytes: u64,
 }
 
-/// The slots of bind group 0, in binding order (see `lib/scene.wgsl`).
-pub const SCENE_SLOTS: [Slot; 6] = [
-    Slot::Uniform,
-    Slot::Read,
-    Slot::Read,
-    Slot::Read,
-    Slot::Read,
-    Slot::Read,
-];
+/// The slots of bind group 0, in binding order (see `lib/scene.wgsl`): the scene info, then
+/// six read-only storage buffers.
+pub const SCENE_SLOTS: [Slot; 7] = {
+    let mut slots = [Slot::Read; 7];
+    slots[0] = Slot::Uniform;
+    slots
+};
 
 pub fn scene_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     compute::bind_group_layout(gpu, "scene", &SCENE_SLOTS)
@@ -180,11 +178,17 @@ impl GpuScene {
                 g
             })
             .collect();
-        Self::from_parts(gpu, &bvh, &info, has_null_interfaces, &media, &grid)
+        Self::from_parts(gpu, &bvh, &info, has_null_interfaces, &media, &grid, usize::MAX)
     }
 
     /// Bare geometry: opaque triangles, no media (ray-query tests and benchmarks).
     pub fn geometry_only(gpu: &Gpu, positions: &[[glam::Vec3; 3]]) -> Result<GpuScene, GpuError> {
+        Self::geometry_split(gpu, positions, usize::MAX)
+    }
+
+    /// [`GpuScene::geometry_only`] with at most `per_binding` triangles in each of the two
+    /// triangle bindings (tests exercise the split without uploading gigabytes).
+    pub fn geometry_split(gpu: &Gpu, positions: &[[glam::Vec3; 3]], per_binding: usize) -> Result<GpuScene, GpuError> {
         let bvh = FlatBvh::build(positions);
         let info: Vec<TriangleInfo> = bvh
             .leaf_slot
@@ -196,7 +200,7 @@ impl GpuScene {
                 outside: NO_MEDIUM,
             })
             .collect();
-        Self::from_parts(gpu, &bvh, &info, false, &[], &[])
+        Self::from_parts(gpu, &bvh, &info, false, &[], &[], per_binding)
     }
 
     fn from_parts(
@@ -206,20 +210,25 @@ impl GpuScene {
         has_null_interfaces: bool,
         media: &[layout::Medium],
         grid: &[f32],
+        per_binding: usize,
     ) -> Result<GpuScene, GpuError> {
+        // The triangles may need two bindings: split at the most one binding may hold.
+        let fits = (compute::max_binding(gpu) / size_of::<layout::Triangle>() as u64) as usize;
+        let split = bvh.triangles.len().min(per_binding).min(fits);
         let scene_info = SceneInfo {
             node_count: bvh.nodes.len() as u32,
             has_null_interfaces: has_null_interfaces as u32,
             medium_count: media.len() as u32,
-            _pad: 0,
+            triangle_split: split as u32,
         };
         let buffers = [
             compute::uniform(gpu, "scene info", &scene_info),
             compute::storage(gpu, "BVH nodes", &bvh.nodes)?,
-            compute::storage(gpu, "triangles", &bvh.triangles)?,
+            compute::storage(gpu, "triangles", &bvh.triangles[..split])?,
             compute::storage(gpu, "triangle info", info)?,
             compute::storage(gpu, "media", media)?,
             compute::storage(gpu, "density grids", grid)?,
+            compute::storage(gpu, "triangles beyond the first binding", &bvh.triangles[split..])?,
         ];
         let bytes = buffers.iter().map(|b| b.size()).sum();
         let layout = scene_layout(gpu);

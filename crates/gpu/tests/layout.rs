@@ -70,7 +70,11 @@ fn scene_structs_match() {
             _pad3
         ]
     );
-    check!(w, SceneInfo, [node_count, has_null_interfaces, medium_count, _pad]);
+    check!(
+        w,
+        SceneInfo,
+        [node_count, has_null_interfaces, medium_count, triangle_split]
+    );
     check!(w, Ray, [o, tmax, d, any_hit]);
     check!(w, Hit, [t, tri, b1, b2]);
     check!(w, RayBatch, [count, row, _pad0, _pad1]);

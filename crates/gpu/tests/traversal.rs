@@ -59,8 +59,13 @@ fn random_rays(count: usize, scale: f32, s: &mut Sampler) -> Vec<Ray> {
 }
 
 fn compare(name: &str, tris: Vec<[Vec3; 3]>, scale: f32, rays: usize, seed: u32) {
+    compare_split(name, tris, scale, rays, seed, usize::MAX);
+}
+
+/// [`compare`] with at most `per_binding` triangles in each triangle binding.
+fn compare_split(name: &str, tris: Vec<[Vec3; 3]>, scale: f32, rays: usize, seed: u32, per_binding: usize) {
     let Some(gpu) = device::for_tests() else { return };
-    let scene = GpuScene::geometry_only(&gpu, &tris).unwrap();
+    let scene = GpuScene::geometry_split(&gpu, &tris, per_binding).unwrap();
     let tracer = RayTracer::new(&gpu, &scene).unwrap();
     let cpu = Bvh::from_positions(tris.clone());
     let mut s = Sampler::new(seed, 0, 0);
@@ -125,6 +130,15 @@ fn large_closed_mesh_matches_cpu() {
     let tris = bumpy_sphere(226, 1.0);
     assert!(tris.len() >= 100_000, "{} triangles", tris.len());
     compare("bumpy sphere", tris, 1.0, 100_000, 3);
+}
+
+/// Triangles split over two bindings (as a scene beyond 128 MiB of triangles is on lavapipe)
+/// trace the same as in one.
+#[test]
+fn triangles_split_over_two_bindings_match_cpu() {
+    let tris = bumpy_sphere(100, 1.0);
+    let n = tris.len();
+    compare_split("split sphere", tris, 1.0, 20_000, 9, n / 3);
 }
 
 #[test]
