@@ -350,7 +350,9 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
     })
 }
 
-/// The `--stats` timeline summary: per pass, where the time went.
+/// The `--stats` timeline summary: per pass, how long the CPU and the GPU were busy and how
+/// long the CPU waited. With a GPU, one pass is in flight: the CPU traces and estimates pass
+/// i + 1 while the GPU gathers pass i, so busy times can add up to more than the wall time.
 fn print_stats(times: &[PassTimes]) {
     if times.is_empty() {
         eprintln!("stats: no many-light passes");
@@ -358,7 +360,11 @@ fn print_stats(times: &[PassTimes]) {
     }
     let n = times.len() as f64;
     let mean = |f: &dyn Fn(&PassTimes) -> f64| times.iter().map(f).sum::<f64>() / n * 1e3;
+    let wall = mean(&|t| t.wall.as_secs_f64());
+    let cpu = mean(&|t| (t.trace + t.cpu_estimates).as_secs_f64());
+    let gpu = mean(&|t| t.kernels.iter().sum());
     eprintln!("stats over {} passes (mean ms per pass):", times.len());
+    eprintln!("  wall time                              {wall:>9.2}");
     eprintln!(
         "  cpu trace (camera + light paths, maps) {:>9.2}",
         mean(&|t| t.trace.as_secs_f64())
@@ -368,7 +374,7 @@ fn print_stats(times: &[PassTimes]) {
         mean(&|t| t.cpu_estimates.as_secs_f64())
     );
     eprintln!(
-        "  waiting for the gpu                    {:>9.2}",
+        "  cpu waiting for the gpu                {:>9.2}",
         mean(&|t| t.gpu_wait.as_secs_f64())
     );
     for k in GatherKernel::ALL {
@@ -376,6 +382,13 @@ fn print_stats(times: &[PassTimes]) {
         if ms > 0.0 {
             eprintln!("  gpu kernel {:<28}{:>9.2}", k.name(), ms);
         }
+    }
+    if gpu > 0.0 {
+        eprintln!(
+            "  busy: cpu {:.0} %, gpu {:.0} % of the wall time",
+            100.0 * cpu / wall.max(1e-9),
+            100.0 * gpu / wall.max(1e-9)
+        );
     }
 }
 

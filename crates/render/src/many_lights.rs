@@ -129,6 +129,8 @@ pub struct PassTimes {
     pub gpu_wait: Duration,
     /// GPU kernel time, per gather kernel ([`beamlight_gpu::gather::GatherKernel`] order).
     pub kernels: [f64; KERNELS],
+    /// Wall time from the previous pass's completion to this one's (set by the orchestrator).
+    pub wall: Duration,
 }
 
 /// The GPU kernels of these settings' method, in (Lss, Lsm, Lms, Lmm) order.

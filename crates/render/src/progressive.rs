@@ -142,6 +142,7 @@ pub fn render(
     let mut started_passes = 0u64;
     let mut in_flight: Option<PassInFlight> = None;
     let gpu = opts.gpu.as_deref();
+    let mut last_finish = Instant::now();
     loop {
         let start_another = match opts.budget {
             Budget::Passes(n) => started_passes < n,
@@ -185,9 +186,11 @@ pub fn render(
                 break;
             };
             let done_pass = done.pass;
-            let times = done
+            let mut times = done
                 .finish(gpu, &mut many_light_buffers)
                 .map_err(|e| format!("pass {done_pass} on the GPU: {e}"))?;
+            times.wall = last_finish.elapsed();
+            last_finish = Instant::now();
             pass_times.push(times);
             for (i, px) in buffer.iter_mut().enumerate() {
                 *px = many_light_buffers.iter().map(|b| b[i]).sum();
