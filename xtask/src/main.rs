@@ -121,11 +121,24 @@ fn ci() -> Result<()> {
     sync(&assets::files(), true)?;
     sync(&bad_scenes::files(), true)?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    run_tests(
-        Command::new(cargo)
-            .current_dir(root())
-            .args(["test", "--release", "--workspace", "--no-fail-fast"]),
-    )
+    let mut tests = Command::new(cargo);
+    tests
+        .current_dir(root())
+        .args(["test", "--release", "--workspace", "--no-fail-fast"])
+        // lavapipe was just ensured: a GPU test that finds no adapter must fail, not skip.
+        .env("CI", "true");
+    // Mesa's Vulkan loader complains on every device open without a runtime directory.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        let dir = std::env::temp_dir().join("beamlight-xdg-runtime");
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))?;
+        }
+        tests.env("XDG_RUNTIME_DIR", dir);
+    }
+    run_tests(&mut tests)
 }
 
 /// Runs `cargo test`, passing its output through, and ends with one line totalling every test
