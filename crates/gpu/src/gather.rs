@@ -96,7 +96,8 @@ impl GatherKernel {
         )
     }
 
-    /// Whether the kernel exists yet (the `vbl` ones are being ported).
+    /// Whether the kernel's WGSL is compiled in (every kernel is; a method uses the GPU only
+    /// when all four of its kernels are, so a kernel can be left out while it is written).
     pub fn available(self) -> bool {
         crate::shaders::SOURCES.iter().any(|(n, _)| *n == self.file())
     }

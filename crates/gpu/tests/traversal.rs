@@ -165,8 +165,8 @@ fn two_million_triangles() {
         "{} triangles: {} BVH nodes ({} MiB), triangles {} MiB",
         tris.len(),
         flat.nodes.len(),
-        flat.nodes.len() * 32 >> 20,
-        flat.triangles.len() * 48 >> 20
+        (flat.nodes.len() * 32) >> 20,
+        (flat.triangles.len() * 48) >> 20
     );
     drop(flat);
     let _ = gpu;

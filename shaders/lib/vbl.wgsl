@@ -1,0 +1,265 @@
+//! use lib/gather.wgsl
+//! use lib/media.wgsl
+//! use lib/sampling.wgsl
+// What the VBL/VSL kernels share: twins of the helpers in `beamlight_trace::vbl` (the VSL's
+// cone of gather directions, the scattering functions as factors of the cone integrand and as
+// lobes to draw directions from, the cone integral, the angular PDFs' vertices). WGSL has no
+// closures: the CPU's integrand `g(ω')` is always a product of two factors (a surface's f·cos
+// or an HG lobe), so it is passed as the two factors, and each kernel computes the vertex
+// values of its angular PDF in its own loop.
+
+// `vbl::clean_r2`: NaN or negative → 0.
+fn clean_r2(r2: f32) -> f32 {
+    return select(0.0, r2, r2 > 0.0);
+}
+
+// `vbl::finite_or_zero`.
+fn finite_or_zero(c: vec3<f32>) -> vec3<f32> {
+    return select(vec3<f32>(0.0), max(c, vec3<f32>(0.0)), finite_vec3(c));
+}
+
+// `vbl::Cone`: the gather directions from a receiver whose rays pass within R of a VSL centre.
+struct Cone {
+    axis: vec3<f32>,
+    // cos θmax and sin θmax.
+    cos_max: f32,
+    sin_max: f32,
+    // 1 − cos θmax, formed without cancellation.
+    one_minus_cos: f32,
+    // Ω / (πR²).
+    weight: f32,
+    // false where the CPU's `vsl_cone` returns `None`.
+    valid: bool,
+}
+
+// `vbl::vsl_cone`: the VSL of squared radius r2 at `centre`, seen from `at`.
+fn vsl_cone(at: vec3<f32>, centre: vec3<f32>, r2: f32, fallback: vec3<f32>) -> Cone {
+    let to = centre - at;
+    let d2 = dot(to, to);
+    let d = sqrt(d2);
+    var axis = fallback;
+    if d > 0.0 && finite_vec3(to / d) {
+        axis = to / d;
+    }
+    var c = Cone(axis, 0.0, 1.0, 1.0, 2.0 / r2, false);
+    if d2 > r2 {
+        let sin2 = r2 / d2;
+        let cos_max = sqrt(max((d2 - r2) / d2, 0.0));
+        c = Cone(axis, cos_max, sqrt(sin2), sin2 / (1.0 + cos_max), 2.0 / (d2 * (1.0 + cos_max)), false);
+    }
+    c.valid = finite_f32(c.weight) && c.weight > 0.0 && finite_vec3(axis);
+    return c;
+}
+
+// `vbl::closest_in_cone`: the direction within the cone closest to the unit direction a.
+fn closest_in_cone(cone: Cone, a: vec3<f32>) -> vec3<f32> {
+    let ca = dot(a, cone.axis);
+    if ca >= cone.cos_max {
+        return a;
+    }
+    var perp = a - cone.axis * ca;
+    let len = length_glam(perp);
+    if len > 1e-6 {
+        perp = perp / len;
+    } else {
+        perp = frame_from_normal(cone.axis)[0];
+    }
+    return normalize_glam(cone.axis * cone.cos_max + perp * cone.sin_max);
+}
+
+// A factor of the cone integrand and a distribution over gather directions ω' in one
+// (`vbl::Lobe` with `vbl::Surface`): a surface's f·cos, f(fixed, sign·ω')·|cos| (sign +1 at a
+// camera shading point, −1 at a VPL), or an HG lobe hg(a, sign·ω').
+const LOBE_SURFACE: u32 = 0u;
+const LOBE_PHASE: u32 = 1u;
+
+struct Lobe {
+    kind: u32,
+    // Surface: the BSDF, its frame, the fixed direction (local), the normal.
+    bsdf: Bsdf,
+    frame: mat3x3<f32>,
+    fixed: vec3<f32>,
+    n: vec3<f32>,
+    // The gather direction where f·cos peaks (`Surface::peak`).
+    peak: vec3<f32>,
+    // Phase: g and the fixed direction a.
+    g: f32,
+    a: vec3<f32>,
+    sign: f32,
+    // Angular scale (`bsdf_scale`, `hg_scale`).
+    scale: f32,
+}
+
+// `vbl::Surface::new` for a BSDF that is not BSDF_NONE: normal n, fixed direction `fixed`
+// (world), sign +1 (receiver) or −1 (VPL).
+fn surface_lobe(b: Bsdf, n: vec3<f32>, fixed: vec3<f32>, sign: f32) -> Lobe {
+    let frame = frame_from_normal(n);
+    let glossy = b.kind == BSDF_PHONG && max_component(b.specular) > 0.0;
+    // `surface_peak`: the mirror direction of `fixed` for Phong, else the normal.
+    var peak = n;
+    var scale = 1.0;
+    if glossy {
+        let r = n * (2.0 * dot(n, fixed)) - fixed;
+        let rcp = 1.0 / length_glam(r);
+        if finite_f32(rcp) && rcp > 0.0 {
+            peak = r * rcp;
+        }
+        scale = 1.0 / sqrt(b.exponent + 1.0);
+    }
+    return Lobe(LOBE_SURFACE, b, frame, to_local(frame, fixed), n, peak * sign, 0.0, vec3<f32>(0.0), sign, scale);
+}
+
+// `vbl::phase_lobe`: hg(a, sign·ω') with its angular scale `hg_scale`.
+fn phase_lobe(g: f32, a: vec3<f32>, sign: f32) -> Lobe {
+    let zero = vec3<f32>(0.0);
+    let b = Bsdf(zero, 0.0, zero, BSDF_NONE);
+    return Lobe(LOBE_PHASE, b, mat3x3<f32>(zero, zero, zero), zero, zero, zero, g, a, sign, max(1.0 - abs(g), 1e-4));
+}
+
+// `vbl::sharper`: of two lobes, the one with the smaller scale (the first on a tie).
+fn sharper(a: Lobe, b: Lobe) -> Lobe {
+    if b.scale < a.scale {
+        return b;
+    }
+    return a;
+}
+
+// The factor's value at ω': `Surface::f_cos`, or the HG density (splat).
+fn lobe_eval(l: Lobe, w: vec3<f32>) -> vec3<f32> {
+    if l.kind == LOBE_PHASE {
+        return vec3<f32>(hg_eval(l.g, l.a, w * l.sign));
+    }
+    let x = to_local(l.frame, w * l.sign);
+    return bsdf_eval(l.bsdf, l.fixed, x) * abs(x.z);
+}
+
+// `Lobe::pdf`.
+fn lobe_pdf(l: Lobe, w: vec3<f32>) -> f32 {
+    if l.kind == LOBE_PHASE {
+        return hg_eval(l.g, l.a, w * l.sign);
+    }
+    return bsdf_pdf(l.bsdf, l.fixed, to_local(l.frame, w * l.sign));
+}
+
+// `Lobe::sample`: (ω', 1), or w = 0 for `None`.
+fn lobe_sample(l: Lobe, u: vec2<f32>, u_pick: f32) -> vec4<f32> {
+    if l.kind == LOBE_PHASE {
+        return vec4<f32>(hg_sample_dir(l.g, l.a, u) * l.sign, 1.0);
+    }
+    let bs = bsdf_sample_dir(l.bsdf, l.fixed, u, u_pick);
+    if bs.w == 0.0 {
+        return bs;
+    }
+    return vec4<f32>(to_world(l.frame, bs.xyz) * l.sign, 1.0);
+}
+
+// `Surface::max_dir` (`surface_max_dir`): the cone direction closest to the lobe's peak, or to
+// the normal if that one is below the horizon.
+fn surface_max_dir(l: Lobe, cone: Cone) -> vec3<f32> {
+    let w = closest_in_cone(cone, l.peak);
+    if dot(w, l.n * l.sign) > 0.0 {
+        return w;
+    }
+    return closest_in_cone(cone, l.n * l.sign);
+}
+
+// `vbl::ConeRandom`: the uniform and lobe lattice shifts and the lobe-pick offset, five draws.
+struct ConeRandom {
+    uniform: vec2<f32>,
+    lobe: vec2<f32>,
+    pick: f32,
+}
+
+fn cone_random(s: ptr<function, Sampler>) -> ConeRandom {
+    let u0 = next_1d(s);
+    let u1 = next_1d(s);
+    let l0 = next_1d(s);
+    let l1 = next_1d(s);
+    let pick = next_1d(s);
+    return ConeRandom(vec2<f32>(u0, u1), vec2<f32>(l0, l1), pick);
+}
+
+// `vbl::cone_directions`.
+fn cone_directions(cone: Cone, max_dirs: u32, scale: f32) -> u32 {
+    let ratio = 2.0 * cone.one_minus_cos / (scale * scale);
+    let n = ceil(f32(max_dirs) * ratio);
+    if n >= f32(max_dirs) {
+        return max(max_dirs, 1u);
+    }
+    if !(n >= 1.0) {
+        return 1u;
+    }
+    return u32(n);
+}
+
+// `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') and `lobe` the sharper factor.
+fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, rnd: ConeRandom) -> vec3<f32> {
+    let frame = frame_from_normal(cone.axis);
+    let omega = TAU * cone.one_minus_cos;
+    var sum = vec3<f32>(0.0);
+    let wide = 2.0 * cone.one_minus_cos >= lobe.scale * lobe.scale && omega > 0.0 && max_dirs >= 2u;
+    if !wide {
+        let n = cone_directions(cone, max_dirs, lobe.scale);
+        for (var k = 0u; k < n; k++) {
+            let local = uniform_cone_1mc(shifted_lattice(k, n, rnd.uniform), cone.one_minus_cos);
+            let w = normalize_glam(to_world(frame, local));
+            sum += lobe_eval(fa, w) * lobe_eval(fb, w);
+        }
+        return sum * (cone.weight / f32(n));
+    }
+    let na = max_dirs - max_dirs / 2u;
+    let nb = max_dirs / 2u;
+    // Balance heuristic over all na + nb directions.
+    let p_uniform = 1.0 / omega;
+    for (var k = 0u; k < na; k++) {
+        let local = uniform_cone_1mc(shifted_lattice(k, na, rnd.uniform), cone.one_minus_cos);
+        let w = normalize_glam(to_world(frame, local));
+        let denominator = f32(na) * p_uniform + f32(nb) * lobe_pdf(lobe, w);
+        sum += lobe_eval(fa, w) * lobe_eval(fb, w) / denominator;
+    }
+    for (var k = 0u; k < nb; k++) {
+        let pick = fract_trunc((f32(k) + 0.5) / f32(nb) + rnd.pick);
+        let ls = lobe_sample(lobe, shifted_lattice(k, nb, rnd.lobe), pick);
+        let w = ls.xyz;
+        if ls.w != 0.0 && dot(w, cone.axis) >= cone.cos_max {
+            let denominator = f32(na) * p_uniform + f32(nb) * lobe_pdf(lobe, w);
+            sum += lobe_eval(fa, w) * lobe_eval(fb, w) / denominator;
+        }
+    }
+    return finite_or_zero(sum * (cone.weight / omega));
+}
+
+// `vbl::vertex_count`: vertices for an angle range `extent` of an integrand varying on the
+// angular scale `scale`.
+fn vertex_count(extent: f32, scale: f32) -> u32 {
+    let most = clamp(params.pdf_vertices, 2u, PL_MAX_VERTICES);
+    let wanted = ceil(4.0 * abs(extent) / scale) + 1.0;
+    if wanted < f32(most) {
+        return max(u32(wanted), 2u);
+    }
+    return most;
+}
+
+// The line parameter of vertex i of k (`vbl::vertex_angle`), clamped to [t0, t1].
+fn vertex_t(l: LineAngles, i: u32, k: u32, t0: f32, t1: f32) -> f32 {
+    let f = f32(i) / f32(k - 1u);
+    return clamp(line_t(l, l.theta0 + (l.theta1 - l.theta0) * f), t0, t1);
+}
+
+// The rest of `vbl::sample_angular` once the k vertex values are in `values`: (t, pdf in t),
+// pdf 0 when there is nothing to sample.
+fn sample_angular(l: LineAngles, values: ptr<function, array<f32, 64>>, k: u32, t0: f32, t1: f32, u: f32) -> vec2<f32> {
+    let sample = piecewise_linear_sample(values, k, l.theta0, l.theta1, params.uniform_share, u);
+    let t = clamp(line_t(l, sample.x), t0, t1);
+    let pdf = sample.y * line_dtheta_dt(l, t);
+    return vec2<f32>(t, select(0.0, pdf, finite_f32(pdf) && pdf > 0.0));
+}
+
+// A shadow ray from `origin` to `target_point` starting in `medium` (`vbl::connect`): 1 when
+// the receiver is at the VSL centre (`dist` = 0).
+fn connect(origin: vec3<f32>, target_point: vec3<f32>, dist: f32, medium: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+    if !(dist > 0.0) {
+        return vec3<f32>(1.0);
+    }
+    return shadow_transmittance(origin, target_point, medium, s);
+}

@@ -1,0 +1,124 @@
+//! use lib/vbl.wgsl
+// Lmm with virtual beam lights: every VRL, its points inflated to radius R, against one
+// camera media segment, the twin of `beamlight_trace::vbl::vbl_to_media` (paper eq. 10): the
+// VSL centre on the VRL ∝ 1/(distance to the camera line)², floored at R, then the camera
+// point by a piecewise-linear PDF in the angle about that centre, then the VSL's cone
+// integrated numerically.
+
+// `vrl::sample_near_line` with the distance floored at `min_dist`: (u, pdf).
+fn near_line_sample(ov: vec3<f32>, dv: vec3<f32>, len: f32, oc: vec3<f32>, dc: vec3<f32>, min_dist: f32, xi: f32) -> vec2<f32> {
+    let a = (ov - oc) - dc * dot(ov - oc, dc);
+    let b = dv - dc * dot(dv, dc);
+    let bb = dot(b, b);
+    if !(bb > 1e-12) {
+        return vec2<f32>(xi * len, 1.0 / len);
+    }
+    let ab = dot(a, b);
+    let u0 = -ab / bb;
+    let h = sqrt(max(dot(a, a) - ab * ab / bb, 0.0) / bb);
+    let apex = vec3<f32>(u0, max(h, min_dist / sqrt(bb)), 0.0);
+    return equiangular(vec3<f32>(0.0), vec3<f32>(1.0, 0.0, 0.0), 0.0, len, apex, xi);
+}
+
+// `vbl::hg_peak_gather`: the gather direction where hg(−ω', −travel) peaks, w = 0 when
+// isotropic.
+fn hg_peak_gather(g: f32, travel: vec3<f32>) -> vec4<f32> {
+    if g > 0.0 {
+        return vec4<f32>(-travel, 1.0);
+    }
+    if g < 0.0 {
+        return vec4<f32>(travel, 1.0);
+    }
+    return vec4<f32>(0.0);
+}
+
+fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>) -> vec3<f32> {
+    let mv = media[vrl.medium];
+    let mc = media[seg.medium];
+    let r2 = clean_r2(params.radius2);
+    let r = sqrt(r2);
+    let ov = vrl.origin;
+    let dv = vrl.dir;
+    let oc = seg.origin;
+    let dc = seg.dir;
+    if !(vrl.length > 0.0 && seg.length > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    // Stage 1: the VSL centre ∝ 1/dist(y(u), camera line)², the distance floored at R.
+    let stage1 = near_line_sample(ov, dv, vrl.length, oc, dc, r, next_1d(s));
+    let u = stage1.x;
+    let pdf_u = stage1.y;
+    if !(pdf_u > 0.0 && finite_f32(pdf_u)) {
+        return vec3<f32>(0.0);
+    }
+    let y = ov + dv * u;
+    // ω' is the gather direction at the camera point (towards the VSL centre).
+    let phase_y = phase_lobe(mv.g, -dv, -1.0);
+    let phase_x = phase_lobe(mc.g, -dc, 1.0);
+    // ω'_max: the VSL centre's HG peak, else the camera point's, else the cone axis.
+    var peak = hg_peak_gather(mv.g, dv);
+    if peak.w == 0.0 {
+        peak = hg_peak_gather(mc.g, -dc);
+    }
+    // Stage 2: the camera point by a piecewise-linear PDF in the angle about y.
+    let line = line_angles(oc, dc, 0.0, seg.length, y, r);
+    let lobe = sharper(phase_y, phase_x);
+    let u_angle = next_1d(s);
+    let k = vertex_count(line.theta1 - line.theta0, lobe.scale);
+    var values: array<f32, 64>;
+    for (var i = 0u; i < k; i++) {
+        let x = oc + dc * vertex_t(line, i, k, 0.0, seg.length);
+        var value = 0.0;
+        if params.angular_pdf == ANGULAR_PDF_VRL {
+            let w = normalize_or_zero(y - x);
+            value = lobe_eval(phase_x, w).x * lobe_eval(phase_y, w).x;
+        } else {
+            let cone = vsl_cone(x, y, r2, -dc);
+            if cone.valid {
+                var w = cone.axis;
+                if peak.w != 0.0 {
+                    w = closest_in_cone(cone, peak.xyz);
+                }
+                value = lobe_eval(phase_x, w).x * lobe_eval(phase_y, w).x;
+            }
+        }
+        values[i] = value;
+    }
+    let stage2 = sample_angular(line, &values, k, 0.0, seg.length, u_angle);
+    let t = stage2.x;
+    let pdf_t = stage2.y;
+    let rnd = cone_random(s);
+    if !(pdf_t > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let x = oc + dc * t;
+    let cone = vsl_cone(x, y, r2, -dc);
+    if !cone.valid {
+        return vec3<f32>(0.0);
+    }
+    let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, rnd);
+    let sigma_y = mv.sigma_s * medium_density(vrl.medium, y);
+    let sigma_x = mc.sigma_s * medium_density(seg.medium, x);
+    let t_vrl = transmittance(vrl.medium, ov, dv, u, s);
+    let t_cam = transmittance(seg.medium, oc, dc, t, s);
+    let dist = length_glam(y - x);
+    let tr = connect(x, y, dist, seg.medium, s);
+    return finite_or_zero(
+        seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * tr * l_vsl / (pdf_u * pdf_t)
+    );
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = record_index(gid);
+    if i >= params.records {
+        return;
+    }
+    let seg = media_segments[i];
+    var sum = vec3<f32>(0.0);
+    for (var j = 0u; j < params.lights; j++) {
+        var s = pair_sampler(KIND_VRL_TO_MEDIA, i, j);
+        sum += vbl_to_media(seg, vrls[j], &s);
+    }
+    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+}

@@ -1,0 +1,82 @@
+//! use lib/vbl.wgsl
+// Lsm with virtual beam lights: every VRL, its points inflated to radius R, against one
+// shading point, the twin of `beamlight_trace::vbl::vbl_to_surface` (paper eqs. 8–9): the VSL
+// centre on the VRL by a piecewise-linear PDF in the angle about the shading point, then the
+// VSL's cone integrated numerically.
+
+fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function, Sampler>) -> vec3<f32> {
+    let m = media[vrl.medium];
+    let r2 = clean_r2(params.radius2);
+    let ov = vrl.origin;
+    let dv = vrl.dir;
+    let p = sp.pos;
+    // At the VSL centre the light travels along dv and leaves towards the receiver (−ω').
+    let phase = phase_lobe(m.g, -dv, -1.0);
+    let len = vrl.length;
+    if !(len > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let line = line_angles(ov, dv, 0.0, len, p, sqrt(r2));
+    let lobe = sharper(rx, phase);
+    let u_angle = next_1d(s);
+    let k = vertex_count(line.theta1 - line.theta0, lobe.scale);
+    var values: array<f32, 64>;
+    for (var i = 0u; i < k; i++) {
+        let y = ov + dv * vertex_t(line, i, k, 0.0, len);
+        var value = 0.0;
+        if params.angular_pdf == ANGULAR_PDF_VRL {
+            let w = normalize_or_zero(y - p);
+            value = luminance_mean(lobe_eval(rx, w)) * lobe_eval(phase, w).x;
+        } else {
+            let cone = vsl_cone(p, y, r2, rx.n);
+            if cone.valid {
+                let w = surface_max_dir(rx, cone);
+                value = luminance_mean(lobe_eval(rx, w)) * lobe_eval(phase, w).x;
+            }
+        }
+        values[i] = value;
+    }
+    let sample = sample_angular(line, &values, k, 0.0, len, u_angle);
+    let u = sample.x;
+    let pdf = sample.y;
+    let rnd = cone_random(s);
+    if !(pdf > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let y = ov + dv * u;
+    let cone = vsl_cone(p, y, r2, rx.n);
+    if !cone.valid {
+        return vec3<f32>(0.0);
+    }
+    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, rnd);
+    if is_black(l_vsl) {
+        return vec3<f32>(0.0);
+    }
+    let sigma_s = m.sigma_s * medium_density(vrl.medium, y);
+    let t_vrl = transmittance(vrl.medium, ov, dv, u, s);
+    let dist = length_glam(y - p);
+    // The shadow ray leaves on the viewer's side: a centre behind the surface is occluded.
+    let origin = spawn_from_triangle(sp.tri, p, sp.wo);
+    let tr = connect(origin, y, dist, sp.medium, s);
+    return finite_or_zero(sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl * tr / pdf);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = record_index(gid);
+    if i >= params.records {
+        return;
+    }
+    let sp = shading_points[i];
+    let f_sp = point_bsdfs[i];
+    var sum = vec3<f32>(0.0);
+    // `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
+    if f_sp.kind != BSDF_NONE {
+        let rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
+        for (var j = 0u; j < params.lights; j++) {
+            var s = pair_sampler(KIND_VRL_TO_SURFACE, i, j);
+            sum += vbl_to_surface(sp, rx, vrls[j], &s);
+        }
+    }
+    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+}

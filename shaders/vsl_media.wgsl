@@ -1,0 +1,76 @@
+//! use lib/vbl.wgsl
+// Lms with virtual spherical lights: every VPL, inflated to radius R, against one camera
+// media segment, the twin of `beamlight_trace::vbl::vsl_to_media` (paper §3.3): the camera
+// point by a piecewise-linear PDF in the angle about the VPL, then the VSL's cone integrated
+// numerically.
+
+fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<function, Sampler>) -> vec3<f32> {
+    let m = media[seg.medium];
+    let r2 = clean_r2(params.radius2);
+    let o = seg.origin;
+    let d = seg.dir;
+    let q = vpl.pos;
+    if !(seg.length > 0.0) || f_vpl.kind == BSDF_NONE {
+        return vec3<f32>(0.0);
+    }
+    let light = surface_lobe(f_vpl, vpl.normal, vpl.wi, -1.0);
+    let phase = phase_lobe(m.g, -d, 1.0);
+    let line = line_angles(o, d, 0.0, seg.length, q, sqrt(r2));
+    let lobe = sharper(light, phase);
+    let u_angle = next_1d(s);
+    let k = vertex_count(line.theta1 - line.theta0, lobe.scale);
+    var values: array<f32, 64>;
+    for (var i = 0u; i < k; i++) {
+        let x = o + d * vertex_t(line, i, k, 0.0, seg.length);
+        var value = 0.0;
+        if params.angular_pdf == ANGULAR_PDF_VRL {
+            let w = normalize_or_zero(q - x);
+            value = luminance_mean(lobe_eval(light, w)) * lobe_eval(phase, w).x;
+        } else {
+            let cone = vsl_cone(x, q, r2, -d);
+            if cone.valid {
+                let w = surface_max_dir(light, cone);
+                value = luminance_mean(lobe_eval(light, w)) * lobe_eval(phase, w).x;
+            }
+        }
+        values[i] = value;
+    }
+    let sample = sample_angular(line, &values, k, 0.0, seg.length, u_angle);
+    let t = sample.x;
+    let pdf = sample.y;
+    let rnd = cone_random(s);
+    if !(pdf > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let x = o + d * t;
+    let cone = vsl_cone(x, q, r2, -d);
+    if !cone.valid {
+        return vec3<f32>(0.0);
+    }
+    let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, rnd);
+    if is_black(l_vsl) {
+        return vec3<f32>(0.0);
+    }
+    let sigma_s = m.sigma_s * medium_density(seg.medium, x);
+    let t_cam = transmittance(seg.medium, o, d, t, s);
+    let dist = length_glam(q - x);
+    // The VSL centre just off its surface, on the side its light arrived from.
+    let target_point = spawn_from_triangle(vpl.tri, q, vpl.wi);
+    let tr = connect(x, target_point, dist, seg.medium, s);
+    return finite_or_zero(seg.throughput * sigma_s * t_cam * vpl.power * l_vsl * tr / pdf);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = record_index(gid);
+    if i >= params.records {
+        return;
+    }
+    let seg = media_segments[i];
+    var sum = vec3<f32>(0.0);
+    for (var j = 0u; j < params.lights; j++) {
+        var s = pair_sampler(KIND_VPL_TO_MEDIA, i, j);
+        sum += vsl_to_media(seg, vpls[j], vpl_bsdfs[j], &s);
+    }
+    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+}
