@@ -185,11 +185,27 @@ fn check_kernel(name: &str, k: GatherKernel, gpu: &[Rgb], cpu: &[Rgb]) {
 /// (clamped at `clamp`; not with `None`), then the `vbl` kernels with `vbl_settings` for each
 /// VBL/VSL radius in `radii`.
 fn compare_gathers(name: &str, scene: Scene, clamp: Option<f32>, radii: &[f32], vbl_settings: VblSettings) {
+    compare_gathers_chunked(name, scene, clamp, radii, vbl_settings, None);
+}
+
+/// [`compare_gathers`] with the records split into dispatches of `chunk` records, as the
+/// binding limit splits large images.
+fn compare_gathers_chunked(
+    name: &str,
+    scene: Scene,
+    clamp: Option<f32>,
+    radii: &[f32],
+    vbl_settings: VblSettings,
+    chunk: Option<usize>,
+) {
     let Some(_) = beamlight_gpu::device::for_tests() else {
         return;
     };
     let ts = TraceScene::new(scene);
-    let backend = GpuBackend::open(&ts.scene).unwrap();
+    let mut backend = GpuBackend::open(&ts.scene).unwrap();
+    if let Some(records) = chunk {
+        backend.gathers.set_chunk_limit(records);
+    }
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     let (seed, pass) = (7, 3);
     let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, seed, pass);
@@ -318,6 +334,20 @@ fn gathers_match_cpu_through_invisible_boundaries() {
     let v = VblSettings::default();
     compare_gathers("bounded fog", bounded_fog(false), Some(0.0), &[0.1, 0.3], v);
     compare_gathers("bounded lumpy fog", bounded_fog(true), Some(0.0), &[0.1, 0.3], v);
+}
+
+/// Records split into many dispatches (each binding a range of the record arrays, with the
+/// record offset keeping every pair's random stream) give the same results.
+#[test]
+fn chunked_dispatches_match_cpu() {
+    compare_gathers_chunked(
+        "glossy fog box in chunks of 48 records",
+        glossy_fog_box(false),
+        Some(0.0),
+        &[0.1],
+        VblSettings::default(),
+        Some(48),
+    );
 }
 
 #[test]

@@ -71,7 +71,8 @@ struct GatherParams {
     uniform_share: f32,
     // ANGULAR_PDF_VBL or ANGULAR_PDF_VRL.
     angular_pdf: u32,
-    _pad0: u32,
+    // Index of this dispatch's first record in the pass: the bound arrays start there.
+    record_offset: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -96,7 +97,7 @@ const KIND_VRL_TO_MEDIA: u32 = 3u;
 
 // The random stream of one (gather record, light) pair: `streams::pair_sampler`.
 fn pair_sampler(kind: u32, record: u32, light: u32) -> Sampler {
-    return sampler_new(params.pair_seed + light, params.pass_index, record * 4u + kind);
+    return sampler_new(params.pair_seed + light, params.pass_index, (params.record_offset + record) * 4u + kind);
 }
 
 // `vpl::falloff`: 1 / max(d², clamp²).

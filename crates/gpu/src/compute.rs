@@ -67,6 +67,51 @@ pub fn bind_group(
     })
 }
 
+/// A buffer bound whole, or a byte range of it.
+pub enum Binding<'a> {
+    Whole(&'a wgpu::Buffer),
+    Range {
+        buffer: &'a wgpu::Buffer,
+        offset: u64,
+        size: u64,
+    },
+}
+
+impl<'a> Binding<'a> {
+    pub fn range(buffer: &'a wgpu::Buffer, offset: u64, size: u64) -> Binding<'a> {
+        Binding::Range { buffer, offset, size }
+    }
+}
+
+/// A bind group binding `bindings[i]` at binding `i`.
+pub fn bind_group_ranges(
+    gpu: &Gpu,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    bindings: &[Binding],
+) -> wgpu::BindGroup {
+    let entries: Vec<_> = bindings
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: match *b {
+                Binding::Whole(buffer) => buffer.as_entire_binding(),
+                Binding::Range { buffer, offset, size } => wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer,
+                    offset,
+                    size: std::num::NonZeroU64::new(size),
+                }),
+            },
+        })
+        .collect();
+    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// A compute pipeline for kernel `name` (a file under `shaders/`, entry point `main`), with
 /// bind group `i` laid out as `groups[i]`.
 pub struct Kernel {
@@ -152,6 +197,31 @@ pub fn storage<T: Pod>(gpu: &Gpu, what: &'static str, data: &[T]) -> Result<wgpu
     }))
 }
 
+/// A read-only storage buffer holding `data`, which may exceed one binding (up to the
+/// adapter's buffer size): the kernels bind ranges of it.
+pub fn storage_unbound<T: Pod>(gpu: &Gpu, what: &'static str, data: &[T]) -> Result<wgpu::Buffer, GpuError> {
+    let zero = [T::zeroed()];
+    let data = if data.is_empty() { &zero[..] } else { data };
+    let bytes: &[u8] = bytemuck::cast_slice(data);
+    check_buffer(gpu, what, bytes.len() as u64)?;
+    Ok(gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(what),
+        contents: bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    }))
+}
+
+fn check_buffer(gpu: &Gpu, what: &'static str, bytes: u64) -> Result<(), GpuError> {
+    if bytes > gpu.limits.max_buffer_size {
+        return Err(GpuError::Limit {
+            what,
+            needed: bytes,
+            allowed: gpu.limits.max_buffer_size,
+        });
+    }
+    Ok(())
+}
+
 /// A uniform buffer holding `value`.
 pub fn uniform<T: Pod>(gpu: &Gpu, what: &'static str, value: &T) -> wgpu::Buffer {
     gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -165,6 +235,18 @@ pub fn uniform<T: Pod>(gpu: &Gpu, what: &'static str, value: &T) -> wgpu::Buffer
 pub fn output<T: Pod>(gpu: &Gpu, what: &'static str, count: usize) -> Result<wgpu::Buffer, GpuError> {
     let bytes = (count.max(1) * size_of::<T>()) as u64;
     check_binding(gpu, what, bytes)?;
+    Ok(gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(what),
+        size: bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    }))
+}
+
+/// [`output`] for a buffer that may exceed one binding (bound in ranges).
+pub fn output_unbound<T: Pod>(gpu: &Gpu, what: &'static str, count: usize) -> Result<wgpu::Buffer, GpuError> {
+    let bytes = (count.max(1) * size_of::<T>()) as u64;
+    check_buffer(gpu, what, bytes)?;
     Ok(gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(what),
         size: bytes,
@@ -200,6 +282,7 @@ pub fn map_and_copy<T: Pod>(gpu: &Gpu, staging: &wgpu::Buffer, count: usize) -> 
     gpu.device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| GpuError::Readback(e.to_string()))?;
+    gpu.check()?;
     rx.recv()
         .map_err(|e| GpuError::Readback(e.to_string()))?
         .map_err(|e| GpuError::Readback(e.to_string()))?;

@@ -32,6 +32,8 @@ pub enum GpuError {
     Shader(String),
     #[error("GPU buffer readback failed: {0}")]
     Readback(String),
+    #[error("the GPU reported: {0}")]
+    Reported(String),
     #[error("{what} needs {needed} but the adapter allows {allowed}")]
     Limit {
         what: &'static str,
@@ -42,6 +44,9 @@ pub enum GpuError {
 
 /// An open device with what the kernels need to know about it.
 pub struct Gpu {
+    /// The first error wgpu reported outside any call's return value (validation, device
+    /// loss): [`Gpu::check`] turns it into a [`GpuError`] instead of wgpu's default panic.
+    errors: std::sync::Arc<std::sync::Mutex<Option<String>>>,
     pub info: wgpu::AdapterInfo,
     pub limits: wgpu::Limits,
     /// Timestamp queries inside compute passes (kernel times without wall-clock noise).
@@ -103,13 +108,30 @@ impl Gpu {
             adapter: info.name.clone(),
             source,
         })?;
+        let errors = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let sink = errors.clone();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            let mut first = sink.lock().unwrap_or_else(|p| p.into_inner());
+            if first.is_none() {
+                *first = Some(e.to_string());
+            }
+        }));
         Ok(Gpu {
+            errors,
             info,
             limits: supported,
             timestamps,
             device,
             queue,
         })
+    }
+
+    /// The first error wgpu reported since the device opened, if any.
+    pub fn check(&self) -> Result<(), GpuError> {
+        match self.errors.lock().unwrap_or_else(|p| p.into_inner()).clone() {
+            Some(e) => Err(GpuError::Reported(e)),
+            None => Ok(()),
+        }
     }
 
     /// The adapter in one line: name, kind and driver.

@@ -162,6 +162,8 @@ pub struct Gathered {
 pub struct Gathers {
     /// Indexed by [`GatherKernel`]; `None` for kernels not written yet.
     kernels: Vec<Option<Kernel>>,
+    /// At most this many gather records per dispatch (beyond what the binding limit allows).
+    chunk_limit: usize,
 }
 
 /// The slots of bind group 1 (see `lib/gather.wgsl`).
@@ -187,7 +189,26 @@ impl Gathers {
                     .transpose()
             })
             .collect::<Result<_, _>>()?;
-        Ok(Gathers { kernels })
+        Ok(Gathers {
+            kernels,
+            chunk_limit: usize::MAX,
+        })
+    }
+
+    /// Splits every kernel's records into dispatches of at most `records` (a multiple of 16),
+    /// as the binding limit does for large images: for tests, which cannot afford gigabytes.
+    pub fn set_chunk_limit(&mut self, records: usize) {
+        assert!(records >= 16 && records.is_multiple_of(16));
+        self.chunk_limit = records;
+    }
+
+    /// Records per dispatch: as many as one storage binding holds of the largest record
+    /// (a shading point), rounded down to a multiple of 16 so that every chunk's byte offset
+    /// (a multiple of 16 records of 16, 32, 48 or 80 bytes) is a multiple of 256, the largest
+    /// storage-offset alignment an adapter may demand.
+    fn records_per_dispatch(&self, gpu: &Gpu) -> usize {
+        let fits = compute::max_binding(gpu) as usize / size_of::<ShadingPoint>();
+        (fits / 16 * 16).clamp(16, self.chunk_limit)
     }
 
     /// Runs the kernels with `run[k]` set and returns their results, read back once.
@@ -229,7 +250,9 @@ impl Gathers {
         let any = |f: fn(GatherKernel) -> bool| GatherKernel::ALL.iter().any(|&k| wanted(k) && f(k));
         let (need_points, need_segments) = (any(|k| k.on_surfaces()), any(|k| !k.on_surfaces()));
         let (need_vpls, need_vrls) = (any(|k| k.reads_vpls()), any(|k| !k.reads_vpls()));
-        let points = compute::storage(
+        // Record arrays may exceed one storage binding (a 1080p image has 166 MB of shading
+        // points); each dispatch binds a chunk of them that fits.
+        let points = compute::storage_unbound(
             gpu,
             "shading points",
             if need_points { inputs.shading_points } else { &[] },
@@ -243,8 +266,8 @@ impl Gathers {
         } else {
             Vec::new()
         };
-        let point_bsdfs = compute::storage(gpu, "shading point BSDFs", &point_bsdfs)?;
-        let segments = compute::storage(
+        let point_bsdfs = compute::storage_unbound(gpu, "shading point BSDFs", &point_bsdfs)?;
+        let segments = compute::storage_unbound(
             gpu,
             "media segments",
             if need_segments { inputs.media_segments } else { &[] },
@@ -266,6 +289,7 @@ impl Gathers {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let mut outputs: Vec<(GatherKernel, wgpu::Buffer, usize)> = Vec::new();
         let mut timed = Vec::new();
+        let chunk = self.records_per_dispatch(gpu);
         for k in GatherKernel::ALL.into_iter().filter(|&k| wanted(k)) {
             let records = if k.on_surfaces() {
                 inputs.shading_points.len()
@@ -277,53 +301,72 @@ impl Gathers {
             } else {
                 inputs.vrls.len()
             };
-            let (x, y, row) = compute::dispatch_size(gpu, records as u32);
-            let params = GatherParams {
-                pair_seed: inputs.pair_seed,
-                pass_index: inputs.pass,
-                records: records as u32,
-                lights: lights as u32,
-                row,
-                clamp: inputs.clamp,
-                scale: 1.0 / inputs.paths.max(1) as f32,
-                radius2: inputs.radius2,
-                directions: inputs.vbl.directions,
-                pdf_vertices: inputs.vbl.pdf_vertices,
-                uniform_share: inputs.vbl.uniform_share,
-                angular_pdf: match inputs.vbl.pdf {
-                    AngularPdf::Vbl => ANGULAR_PDF_VBL,
-                    AngularPdf::Vrl => ANGULAR_PDF_VRL,
-                },
-                ..Default::default()
-            };
-            let params = compute::uniform(gpu, "gather params", &params);
-            let out = compute::output::<[f32; 4]>(gpu, "gathered", records)?;
+            let out = compute::output_unbound::<[f32; 4]>(gpu, "gathered", records)?;
             let kernel = self.kernels[k as usize].as_ref().expect("wanted kernels exist");
-            let group = compute::bind_group(
-                gpu,
-                kernel.name,
-                &kernel.layouts[1],
-                &[
-                    &params,
-                    &points,
-                    &point_bsdfs,
-                    &segments,
-                    &vpls,
-                    &vpl_bsdfs,
-                    &vrls,
-                    &out,
-                ],
-            );
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(kernel.name),
-                    timestamp_writes: timer.next_pass(),
-                });
-                pass.set_pipeline(&kernel.pipeline);
-                pass.set_bind_group(0, &scene.bind_group, &[]);
+            // All of one kernel's dispatches go into one timed compute pass.
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(kernel.name),
+                timestamp_writes: timer.next_pass(),
+            });
+            pass.set_pipeline(&kernel.pipeline);
+            pass.set_bind_group(0, &scene.bind_group, &[]);
+            for first in (0..records).step_by(chunk) {
+                let n = chunk.min(records - first);
+                let (x, y, row) = compute::dispatch_size(gpu, n as u32);
+                let params = GatherParams {
+                    pair_seed: inputs.pair_seed,
+                    pass_index: inputs.pass,
+                    records: n as u32,
+                    lights: lights as u32,
+                    row,
+                    clamp: inputs.clamp,
+                    scale: 1.0 / inputs.paths.max(1) as f32,
+                    radius2: inputs.radius2,
+                    directions: inputs.vbl.directions,
+                    pdf_vertices: inputs.vbl.pdf_vertices,
+                    uniform_share: inputs.vbl.uniform_share,
+                    angular_pdf: match inputs.vbl.pdf {
+                        AngularPdf::Vbl => ANGULAR_PDF_VBL,
+                        AngularPdf::Vrl => ANGULAR_PDF_VRL,
+                    },
+                    record_offset: first as u32,
+                    ..Default::default()
+                };
+                let params = compute::uniform(gpu, "gather params", &params);
+                // This chunk's records; of the other kind's array (unused) just its start.
+                fn chunk_of(
+                    buffer: &wgpu::Buffer,
+                    first: usize,
+                    n: usize,
+                    size: usize,
+                    ours: bool,
+                ) -> compute::Binding<'_> {
+                    if ours {
+                        compute::Binding::range(buffer, (first * size) as u64, (n * size) as u64)
+                    } else {
+                        compute::Binding::range(buffer, 0, buffer.size().min(size as u64))
+                    }
+                }
+                let on_surfaces = k.on_surfaces();
+                let group = compute::bind_group_ranges(
+                    gpu,
+                    kernel.name,
+                    &kernel.layouts[1],
+                    &[
+                        compute::Binding::Whole(&params),
+                        chunk_of(&points, first, n, size_of::<ShadingPoint>(), on_surfaces),
+                        chunk_of(&point_bsdfs, first, n, size_of::<layout::Bsdf>(), on_surfaces),
+                        chunk_of(&segments, first, n, size_of::<MediaSegment>(), !on_surfaces),
+                        compute::Binding::Whole(&vpls),
+                        compute::Binding::Whole(&vpl_bsdfs),
+                        compute::Binding::Whole(&vrls),
+                        chunk_of(&out, first, n, 16, true),
+                    ],
+                );
                 pass.set_bind_group(1, &group, &[]);
                 pass.dispatch_workgroups(x, y, 1);
             }
+            drop(pass);
             timed.push(k);
             outputs.push((k, out, records));
         }
@@ -345,6 +388,7 @@ impl Gathers {
         }
         timer.resolve(&mut encoder);
         gpu.queue.submit([encoder.finish()]);
+        gpu.check()?;
         Ok(PendingGathers {
             staging,
             layout,

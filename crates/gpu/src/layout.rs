@@ -155,7 +155,8 @@ pub struct GatherParams {
     pub uniform_share: f32,
     /// `VblSettings::pdf`: [`ANGULAR_PDF_VBL`] or [`ANGULAR_PDF_VRL`].
     pub angular_pdf: u32,
-    pub _pad0: u32,
+    /// Index of this dispatch's first record in the pass (dispatches bind chunks of records).
+    pub record_offset: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

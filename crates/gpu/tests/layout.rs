@@ -104,7 +104,7 @@ fn gather_structs_match() {
             pdf_vertices,
             uniform_share,
             angular_pdf,
-            _pad0,
+            record_offset,
             _pad1,
             _pad2
         ]
