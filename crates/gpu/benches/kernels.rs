@@ -141,42 +141,18 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
     for k in GatherKernel::ALL.into_iter().filter(|k| k.available()) {
         let clock = Instant::now();
         let total: Rgb = match k {
-            GatherKernel::VplSurface => sps
-                .par_iter()
-                .enumerate()
-                .map(|(i, sp)| {
-                    (lights.vpls.iter().enumerate())
-                        .map(|(j, v)| vpl::vpl_to_surface(ts, sp, v, 0.0, &mut pair(GatherKind::VplToSurface, i, j)))
-                        .sum::<Rgb>()
-                })
-                .sum(),
-            GatherKernel::VrlSurface => sps
-                .par_iter()
-                .enumerate()
-                .map(|(i, sp)| {
-                    (lights.vrls.iter().enumerate())
-                        .map(|(j, v)| vrl::vrl_to_surface(ts, sp, v, 0.0, &mut pair(GatherKind::VrlToSurface, i, j)))
-                        .sum::<Rgb>()
-                })
-                .sum(),
-            GatherKernel::VplMedia => segs
-                .par_iter()
-                .enumerate()
-                .map(|(i, seg)| {
-                    (lights.vpls.iter().enumerate())
-                        .map(|(j, v)| vpl::vpl_to_media(ts, seg, v, 0.0, &mut pair(GatherKind::VplToMedia, i, j)))
-                        .sum::<Rgb>()
-                })
-                .sum(),
-            GatherKernel::VrlMedia => segs
-                .par_iter()
-                .enumerate()
-                .map(|(i, seg)| {
-                    (lights.vrls.iter().enumerate())
-                        .map(|(j, v)| vrl::vrl_to_media(ts, seg, v, 0.0, &mut pair(GatherKind::VrlToMedia, i, j)))
-                        .sum::<Rgb>()
-                })
-                .sum(),
+            GatherKernel::VplSurface => sum_over(sps, &lights.vpls, |i, sp, j, v| {
+                vpl::vpl_to_surface(ts, sp, v, 0.0, &mut pair(GatherKind::VplToSurface, i, j))
+            }),
+            GatherKernel::VrlSurface => sum_over(sps, &lights.vrls, |i, sp, j, v| {
+                vrl::vrl_to_surface(ts, sp, v, 0.0, &mut pair(GatherKind::VrlToSurface, i, j))
+            }),
+            GatherKernel::VplMedia => sum_over(segs, &lights.vpls, |i, seg, j, v| {
+                vpl::vpl_to_media(ts, seg, v, 0.0, &mut pair(GatherKind::VplToMedia, i, j))
+            }),
+            GatherKernel::VrlMedia => sum_over(segs, &lights.vrls, |i, seg, j, v| {
+                vrl::vrl_to_media(ts, seg, v, 0.0, &mut pair(GatherKind::VrlToMedia, i, j))
+            }),
             GatherKernel::VslSurface => sum_over(sps, &lights.vpls, |i, sp, j, v| {
                 vbl::vsl_to_surface(ts, sp, v, radius2, &vbl, &mut pair(GatherKind::VplToSurface, i, j))
             }),
