@@ -205,6 +205,10 @@ fn tentative_collisions(
 /// Calls `f(t0, t1, majorant_density)` for each majorant cell the ray crosses inside the grid's
 /// box, in order, clipped to `(0, tmax)`; stops early when `f` returns false.
 fn walk_majorant_cells(grid: &DensityGrid, o: Vec3, d: Vec3, tmax: f32, mut f: impl FnMut(f32, f32, f32) -> bool) {
+    // A NaN direction would never step to another cell (its signum is NaN, a step of 0).
+    if !(d.is_finite() && o.is_finite()) {
+        return;
+    }
     // Slab test against the grid box.
     let inv = d.recip();
     let ta = (grid.lo - o) * inv;
@@ -276,6 +280,21 @@ mod tests {
             sigma_a,
             g: 0.0,
             density,
+        }
+    }
+
+    /// A NaN ray (from a broken caller) ends the walk instead of looping forever.
+    #[test]
+    fn nan_rays_terminate() {
+        let grid = DensityGrid::constant(UVec3::splat(8), Vec3::ZERO, Vec3::ONE, 1.0);
+        let m = medium(Rgb::ONE, Rgb::ZERO, Some(grid));
+        let mut s = Sampler::new(1, 0, 0);
+        for (o, d) in [
+            (Vec3::splat(0.5), Vec3::new(f32::NAN, 0.0, 0.0)),
+            (Vec3::new(f32::NAN, 0.5, 0.5), Vec3::X),
+        ] {
+            let tr = transmittance(&m, o, d, 1.0, &mut s);
+            assert!(tr.is_finite());
         }
     }
 
