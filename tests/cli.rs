@@ -545,3 +545,149 @@ fn backend_choice_with_and_without_an_adapter() {
     );
     assert!(out.exists());
 }
+
+/// Arguments of a small, fast many-light render of the fog box to `out`.
+fn small_render(out: &Path, extra: &[&str]) -> Vec<String> {
+    let scene = root().join("assets/scenes/cornell_fog.toml");
+    [
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        "vrl",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--light-paths",
+        "8",
+        "--backend",
+        "cpu",
+    ]
+    .iter()
+    .chain(extra)
+    .map(|s| s.to_string())
+    .collect()
+}
+
+fn run_ok(args: &[String]) {
+    let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+}
+
+/// Every layer of two EXRs, per pixel, to f32 rounding of f64 sums added in another order.
+fn assert_same_layers(a: &Path, b: &Path) {
+    let (la, lb) = (
+        beamlight_render::output::read_exr_layers(a).unwrap(),
+        beamlight_render::output::read_exr_layers(b).unwrap(),
+    );
+    assert_eq!(la.len(), lb.len());
+    assert!(la.len() >= 8, "beauty and seven components");
+    for ((na, ia), (nb, ib)) in la.iter().zip(&lb) {
+        assert_eq!(na, nb);
+        for (p, q) in ia.pixels.iter().zip(&ib.pixels) {
+            for c in 0..3 {
+                assert!((p[c] - q[c]).abs() <= 1e-6 * p[c].abs().max(1e-6), "{na}: {p} vs {q}");
+            }
+        }
+    }
+}
+
+/// `--passes A..B` renders part of the pass sequence; `merge` of adjacent parts, in any order,
+/// equals the whole render; overlapping or foreign parts are refused.
+#[test]
+fn pass_ranges_merge_into_the_whole_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name);
+    run_ok(&small_render(&p("whole.exr"), &["--passes", "5"]));
+    run_ok(&small_render(&p("a.exr"), &["--passes", "0..2"]));
+    run_ok(&small_render(&p("b.exr"), &["--passes", "2..5"]));
+    assert!(p("a.accum").exists() && p("b.accum").exists());
+    let merge = |parts: &[&str], out: &Path| {
+        let mut args = vec!["merge".to_string()];
+        args.extend(parts.iter().map(|s| p(s).to_str().unwrap().to_string()));
+        args.extend(["-o".to_string(), out.to_str().unwrap().to_string()]);
+        Command::new(env!("CARGO_BIN_EXE_beamlight"))
+            .args(&args)
+            .output()
+            .unwrap()
+    };
+    let o = merge(&["b.accum", "a.accum"], &p("merged.exr"));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_layers(&p("merged.exr"), &p("whole.exr"));
+    // Overlaps, another seed, and files that are not accumulators.
+    let o = merge(&["a.accum", "a.accum"], &p("bad.exr"));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("adjacent"), "{}", stderr(&o));
+    run_ok(&small_render(&p("c.exr"), &["--passes", "2..5", "--seed", "9"]));
+    let o = merge(&["a.accum", "c.accum"], &p("bad.exr"));
+    assert!(stderr(&o).contains("different renders"), "{}", stderr(&o));
+    let o = merge(&["a.accum", "whole.exr"], &p("bad.exr"));
+    assert!(
+        stderr(&o).contains("not a beamlight accumulator file"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!p("bad.exr").exists());
+}
+
+/// A render checkpointed after 2 passes and resumed to 5 equals one run of 5; a checkpoint
+/// from other settings is refused.
+#[test]
+fn resumed_render_equals_uninterrupted() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name);
+    let ck = p("run.ck");
+    let ck = ck.to_str().unwrap();
+    run_ok(&small_render(&p("whole.exr"), &["--passes", "5"]));
+    run_ok(&small_render(&p("run.exr"), &["--passes", "2", "--checkpoint", ck]));
+    run_ok(&small_render(
+        &p("run.exr"),
+        &["--passes", "5", "--resume", ck, "--checkpoint", ck],
+    ));
+    assert_same_layers(&p("run.exr"), &p("whole.exr"));
+    let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(small_render(
+            &p("x.exr"),
+            &["--passes", "7", "--resume", ck, "--seed", "4"],
+        ))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("different render"), "{}", stderr(&o));
+    assert!(!p("x.exr").exists());
+}
+
+/// Ctrl-C (SIGINT) finishes the current pass, writes the image and exits with 130.
+#[test]
+fn interrupt_writes_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("i.exr");
+    let child = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(small_render(&out, &["--passes", "100000"]))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    let (img, meta) = read_exr(&out).unwrap();
+    assert!(img.pixels.iter().all(|p| p.is_finite()));
+    let spp: u64 = meta
+        .iter()
+        .find(|(k, _)| k == "beamlight.spp")
+        .unwrap()
+        .1
+        .parse()
+        .unwrap();
+    assert!((1..100000).contains(&spp), "{spp} passes");
+}

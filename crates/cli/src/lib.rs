@@ -1,4 +1,6 @@
-//! The `beamlight` command line: `render`, `compare`, `info`.
+//! The `beamlight` command line: `render`, `compare`, `info`, `merge`.
+mod runs;
+
 use anyhow::{Context, Result, bail};
 use beamlight_gpu::{Gpu, GpuBackend, gather::GatherKernel};
 use beamlight_render::{
@@ -32,11 +34,25 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (TOML sidecar, or a .gltf/.glb alone) to a linear-RGB OpenEXR image.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Compare two EXR images: RMSE, relMSE, MAE and maximum absolute error (B is the reference).
     Compare { a: PathBuf, b: PathBuf },
     /// Describe a scene: geometry, materials, media, emitters, backend.
     Info { scene: PathBuf },
+    /// Merge the accumulators of adjacent pass ranges (`render --passes A..B`) into one image.
+    Merge {
+        /// Accumulator files (`.accum`), in any order.
+        parts: Vec<PathBuf>,
+        /// Output OpenEXR file; its accumulators are written beside it (`.accum`).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also write a tonemapped sRGB PNG preview.
+        #[arg(long)]
+        preview: Option<PathBuf>,
+        /// Exposure of the preview in stops.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+    },
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -62,9 +78,10 @@ struct RenderArgs {
     output: PathBuf,
     #[arg(long, value_enum, default_value = "vbl")]
     method: MethodArg,
-    /// Number of progressive passes.
+    /// Number of progressive passes, or a range `A..B` of the global pass sequence (one part
+    /// of a render split across machines: its accumulators are written for `beamlight merge`).
     #[arg(long, conflicts_with_all = ["spp", "time"])]
-    passes: Option<u64>,
+    passes: Option<runs::PassRange>,
     /// Samples per pixel (for `pt`, the same as passes).
     #[arg(long, conflicts_with = "time")]
     spp: Option<u64>,
@@ -126,6 +143,14 @@ struct RenderArgs {
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
     alpha: f32,
+    /// Save the accumulators (running sums, pass count, settings) to FILE every
+    /// `--write-every` seconds (default 60) and at the end, atomically.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Continue the render saved in FILE (same scene and settings): `--passes N` then counts
+    /// all passes, the saved ones included.
+    #[arg(long, value_name = "FILE", conflicts_with = "spp")]
+    resume: Option<PathBuf>,
     /// Print where the passes' time went: CPU tracing, CPU estimates, waiting for the GPU,
     /// and each GPU kernel's time (from timestamp queries).
     #[arg(long)]
@@ -137,12 +162,22 @@ pub fn main() -> ExitCode {
     let start = Instant::now();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render(args, start),
+        Command::Render(args) => render(*args, start),
         Command::Compare { a, b } => compare_cmd(&a, &b),
         Command::Info { scene } => info(&scene),
+        Command::Merge {
+            parts,
+            output,
+            preview,
+            exposure,
+        } => {
+            check_output_path(&output, "exr").and_then(|()| runs::merge(&parts, &output, preview.as_deref(), exposure))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The image is written; the exit code still tells a script the render did not finish.
+        Err(e) if e.is::<runs::Interrupted>() => ExitCode::from(130),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
@@ -185,11 +220,17 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha must lie strictly between 0 and 1, got {}", args.alpha);
     }
-    let budget = match (args.passes.or(args.spp), args.time) {
+    let range_start = args.passes.and_then(|r| r.start);
+    let pass_count = args.passes.map(|r| r.end - r.start.unwrap_or(0)).or(args.spp);
+    if range_start.is_some() && args.resume.is_some() {
+        bail!("--resume continues a whole render; a pass range (--passes A..B) starts at A");
+    }
+    let budget = match (pass_count, args.time) {
         (Some(0), _) => bail!("--passes/--spp must be at least 1"),
         (Some(n), _) => Budget::Passes(n),
         (None, Some(t)) if t.is_finite() && t > 0.0 => Budget::Time(Duration::from_secs_f64(t)),
         (None, Some(t)) => bail!("--time must be a positive number of seconds, got {t}"),
+        (None, None) if args.resume.is_some() => bail!("--resume needs the total --passes N or a --time budget"),
         (None, None) => Budget::Passes(DEFAULT_PASSES),
     };
     for (flag, v) in [("--width", args.width), ("--height", args.height)] {
@@ -231,7 +272,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         height,
         budget,
         seed: args.seed,
-        first_pass: 0,
+        first_pass: range_start.unwrap_or(0),
         path_tracer: PathTracerSettings {
             max_depth: args.max_depth,
             ..Default::default()
@@ -255,6 +296,41 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         },
         gpu,
     };
+    // Checkpoints and pass ranges: what identifies this render, and where it resumes.
+    let fingerprint = runs::fingerprint(&ts.scene, &opts);
+    let resumed = match &args.resume {
+        Some(path) => Some(runs::read_checkpoint(path, &fingerprint)?),
+        None => None,
+    };
+    let mut opts = opts;
+    let mut budget = budget;
+    if let Some(acc) = &resumed {
+        opts.first_pass = acc.end_pass();
+        if let Budget::Passes(n) = budget {
+            if n <= acc.passes() {
+                bail!(
+                    "{}: the checkpoint already holds {} passes (asked for {n} in all)",
+                    args.resume.as_ref().expect("resumed").display(),
+                    acc.passes()
+                );
+            }
+            budget = Budget::Passes(n - acc.passes());
+        }
+        opts.budget = budget;
+        eprintln!("resuming after {} passes", acc.passes());
+    }
+    let accum_path = args
+        .checkpoint
+        .clone()
+        .or_else(|| range_start.map(|_| runs::default_accum_path(&args.output)));
+    let accum_first = resumed.as_ref().map_or(opts.first_pass, |a| a.first_pass);
+    let accumulators = |film: &Film, components: &[Film]| beamlight_render::accum::Accumulators {
+        fingerprint: fingerprint.clone(),
+        first_pass: accum_first,
+        film: film.clone(),
+        components: components.to_vec(),
+    };
+    runs::catch_interrupts();
     let bar = progress_bar(&budget);
     let outputs = Outputs {
         args: &args,
@@ -262,25 +338,41 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         backend: &backend,
     };
     let mut last_write = Instant::now();
+    let mut last_checkpoint = Instant::now();
+    let checkpoint_every = args.write_every.unwrap_or(60.0);
     let mut write_error = None;
-    let result = beamlight_render::render(&ts, &opts, |p| {
+    let result = beamlight_render::render_from(&ts, &opts, resumed.as_ref(), |p| {
         bar.set_position(p.passes);
         if let Some(every) = args.write_every
             && last_write.elapsed().as_secs_f64() >= every
             && write_error.is_none()
         {
-            write_error = outputs.write(p.film, p.components, p.passes, p.elapsed).err();
+            write_error = outputs.write(p.film, p.components, p.film.samples, p.elapsed).err();
             last_write = Instant::now();
         }
-        // An image that cannot be written ends the render now, not hours later.
-        write_error.is_none()
+        if let Some(path) = &args.checkpoint
+            && last_checkpoint.elapsed().as_secs_f64() >= checkpoint_every
+            && write_error.is_none()
+        {
+            write_error = accumulators(p.film, p.components)
+                .write(path)
+                .err()
+                .map(anyhow::Error::from);
+            last_checkpoint = Instant::now();
+        }
+        // An image that cannot be written ends the render now, not hours later; so does Ctrl-C
+        // (after this pass, whose image is written below).
+        write_error.is_none() && !runs::interrupted()
     })
     .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
     if let Some(e) = write_error {
-        return Err(e.context("writing an intermediate image (--write-every)"));
+        return Err(e.context("writing an intermediate image or checkpoint"));
     }
-    outputs.write(&result.film, &result.components, result.passes, result.elapsed)?;
+    outputs.write(&result.film, &result.components, result.film.samples, result.elapsed)?;
+    if let Some(path) = &accum_path {
+        accumulators(&result.film, &result.components).write(path)?;
+    }
     let secs = result.elapsed.as_secs_f64();
     if result.film.rejected > 0 {
         eprintln!(
@@ -290,6 +382,17 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     }
     if args.stats {
         print_stats(&result.pass_times);
+    }
+    if runs::interrupted() {
+        eprintln!(
+            "interrupted: {} passes written to {}{}",
+            result.film.samples,
+            args.output.display(),
+            accum_path
+                .as_ref()
+                .map_or(String::new(), |p| format!(" (accumulators: {})", p.display()))
+        );
+        return Err(runs::Interrupted.into());
     }
     eprintln!(
         "done: {} in {secs:.2} s, {} spp, {:.3} Msamples/s -> {}",

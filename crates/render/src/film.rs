@@ -80,6 +80,50 @@ impl Film {
         self.samples += 1;
     }
 
+    /// Adds another film's samples (the same pixels, other passes): the sums add, so merging
+    /// the films of passes 0..k and k..n gives the film of 0..n up to f64 rounding.
+    pub fn add_film(&mut self, other: &Film) {
+        assert_eq!((self.width, self.height), (other.width, other.height));
+        for (a, b) in self.sum.iter_mut().zip(&other.sum) {
+            for c in 0..3 {
+                a[c] += b[c];
+            }
+        }
+        for (a, b) in self.sum_sq.iter_mut().zip(&other.sum_sq) {
+            for c in 0..3 {
+                a[c] += b[c];
+            }
+        }
+        self.samples += other.samples;
+        self.rejected += other.rejected;
+    }
+
+    /// The running sums (of the samples and of their squares), per pixel: what a checkpoint
+    /// stores.
+    pub fn sums(&self) -> (&[[f64; 3]], &[[f64; 3]]) {
+        (&self.sum, &self.sum_sq)
+    }
+
+    /// A film from stored sums; `None` when their lengths do not match the size.
+    pub fn from_sums(
+        width: u32,
+        height: u32,
+        sum: Vec<[f64; 3]>,
+        sum_sq: Vec<[f64; 3]>,
+        samples: u64,
+        rejected: u64,
+    ) -> Option<Film> {
+        let n = width as usize * height as usize;
+        (sum.len() == n && sum_sq.len() == n).then_some(Film {
+            width,
+            height,
+            sum,
+            sum_sq,
+            samples,
+            rejected,
+        })
+    }
+
     /// The current estimate: the plain average of the samples per pixel.
     pub fn image(&self) -> Image {
         let n = self.samples.max(1) as f64;

@@ -2,6 +2,7 @@
 //! budget runs out), the per-pixel accumulators, and image input/output.
 //!
 //! Data flows one way: scene → tracing → estimators → accumulators ([`film`]) → image ([`output`]).
+pub mod accum;
 pub mod compare;
 pub mod components;
 pub mod film;
@@ -11,4 +12,4 @@ pub mod progressive;
 pub mod radius;
 
 pub use film::{Film, Image};
-pub use progressive::{Budget, Method, Progress, RenderOptions, RenderResult, render};
+pub use progressive::{Budget, Method, Progress, RenderOptions, RenderResult, render, render_from};

@@ -2,6 +2,7 @@
 //! `(scene, settings, seed, pass index)`, averaged into a [`Film`] until the budget runs out.
 use crate::{
     Film,
+    accum::Accumulators,
     many_lights::{self, ManyLightSettings, PassInFlight, PassTimes, VirtualLights},
 };
 use beamlight_gpu::GpuBackend;
@@ -95,6 +96,18 @@ pub struct Progress<'a> {
 pub fn render(
     ts: &TraceScene,
     opts: &RenderOptions,
+    on_pass: impl FnMut(&Progress) -> bool,
+) -> Result<RenderResult, String> {
+    render_from(ts, opts, None, on_pass)
+}
+
+/// [`render`] continuing from accumulated passes (a checkpoint): the new passes are added to
+/// `resume`'s films, and `opts.first_pass` must be the pass after its last one. The budget
+/// counts the new passes only.
+pub fn render_from(
+    ts: &TraceScene,
+    opts: &RenderOptions,
+    resume: Option<&Accumulators>,
     mut on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
     // `vrl` is unclamped by definition; `vrl-clamped` uses the given distance or the default.
@@ -125,6 +138,20 @@ pub fn render(
     let mut buffer = vec![Rgb::ZERO; (w * h) as usize];
     let n_components = if opts.components { Component::ALL.len() } else { 0 };
     let mut components: Vec<Film> = (0..n_components).map(|_| Film::new(w, h)).collect();
+    if let Some(acc) = resume {
+        if (acc.film.width, acc.film.height) != (w, h) || acc.components.len() != n_components {
+            return Err("the checkpoint holds a different image size or set of layers".into());
+        }
+        if acc.end_pass() != opts.first_pass {
+            return Err(format!(
+                "the checkpoint ends at pass {}, the render would start at pass {}",
+                acc.end_pass(),
+                opts.first_pass
+            ));
+        }
+        film = acc.film.clone();
+        components = acc.components.clone();
+    }
     let mut component_buffers = vec![vec![Rgb::ZERO; (w * h) as usize]; n_components];
     let mut many_light_buffers: [Vec<Rgb>; Component::ALL.len()] = match opts.method {
         Method::Pt => Default::default(),
