@@ -6,6 +6,8 @@
 //!   `tests/bad_scenes/`.
 //! * `ci`: make sure Mesa lavapipe is installed (apt-get, when missing), check the generated
 //!   files, then run the whole test suite in release mode.
+//! * `stress`: the numerical stress grid (`tests/stress.rs`) at full size (larger images, more
+//!   passes): minutes, not part of CI.
 use anyhow::{Context, Result, bail};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -18,7 +20,8 @@ const USAGE: &str = "usage: cargo xtask <command>
 commands:
   assets [--check]      write the bundled scenes to assets/scenes/ (--check: verify only)
   bad-scenes [--check]  write the generated broken-scene fixtures to tests/bad_scenes/
-  ci                    install lavapipe if missing, check generated files, run all tests";
+  ci                    install lavapipe if missing, check generated files, run all tests
+  stress                the numerical stress grid (tests/stress.rs) at full size";
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -30,6 +33,15 @@ fn main() -> Result<()> {
         Some("assets") => sync(&assets::files(), check),
         Some("bad-scenes") => sync(&bad_scenes::files(), check),
         Some("ci") => ci(),
+        Some("stress") => {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            run_tests(
+                Command::new(cargo)
+                    .current_dir(root())
+                    .args(["test", "--release", "--test", "stress"])
+                    .env("BEAMLIGHT_STRESS", "full"),
+            )
+        }
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())
