@@ -6,6 +6,10 @@
 //!   `tests/bad_scenes/`.
 //! * `ci`: make sure Mesa lavapipe is installed (apt-get, when missing), check the generated
 //!   files, then run the whole test suite in release mode.
+//! * `fuzz [SECONDS]`: coverage-guided fuzzing of scene loading (`fuzz/`, cargo-fuzz with
+//!   libFuzzer), each target for SECONDS (default 60), seeded with the broken-scene corpus;
+//!   installs cargo-fuzz when missing. Crashes land in `fuzz/artifacts/`: make each one a case
+//!   in `tests/bad_scenes/`.
 //! * `stress`: the numerical stress grid (`tests/stress.rs`) at full size (larger images, more
 //!   passes): minutes, not part of CI.
 use anyhow::{Context, Result, bail};
@@ -21,10 +25,20 @@ commands:
   assets [--check]      write the bundled scenes to assets/scenes/ (--check: verify only)
   bad-scenes [--check]  write the generated broken-scene fixtures to tests/bad_scenes/
   ci                    install lavapipe if missing, check generated files, run all tests
-  stress                the numerical stress grid (tests/stress.rs) at full size";
+  stress                the numerical stress grid (tests/stress.rs) at full size
+  fuzz [SECONDS]        fuzz the scene loaders (fuzz/), each target for SECONDS (60)";
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().is_some_and(|a| a == "fuzz") {
+        let seconds = match args.get(1) {
+            Some(s) => s
+                .parse()
+                .with_context(|| format!("fuzz: '{s}' is not a number of seconds"))?,
+            None => 60u64,
+        };
+        return fuzz(seconds);
+    }
     let check = args.iter().skip(1).any(|a| a == "--check");
     if let Some(extra) = args.iter().skip(1).find(|a| *a != "--check") {
         bail!("unknown argument '{extra}'\n\n{USAGE}");
@@ -33,15 +47,11 @@ fn main() -> Result<()> {
         Some("assets") => sync(&assets::files(), check),
         Some("bad-scenes") => sync(&bad_scenes::files(), check),
         Some("ci") => ci(),
-        Some("stress") => {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            run_tests(
-                Command::new(cargo)
-                    .current_dir(root())
-                    .args(["test", "--release", "--test", "stress"])
-                    .env("BEAMLIGHT_STRESS", "full"),
-            )
-        }
+        Some("stress") => run_tests(
+            test_command()?
+                .args(["test", "--release", "--test", "stress"])
+                .env("BEAMLIGHT_STRESS", "full"),
+        ),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())
@@ -132,14 +142,20 @@ fn ci() -> Result<()> {
     }
     sync(&assets::files(), true)?;
     sync(&bad_scenes::files(), true)?;
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut tests = Command::new(cargo);
+    let mut tests = test_command()?;
     tests
-        .current_dir(root())
         .args(["test", "--release", "--workspace", "--no-fail-fast"])
         // lavapipe was just ensured: a GPU test that finds no adapter must fail, not skip.
         .env("CI", "true");
-    // Mesa's Vulkan loader complains on every device open without a runtime directory.
+    run_tests(&mut tests)
+}
+
+/// `cargo` in the repository root, with a private XDG_RUNTIME_DIR when there is none (Mesa's
+/// Vulkan loader complains on every device open without one).
+fn test_command() -> Result<Command> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut c = Command::new(cargo);
+    c.current_dir(root());
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         let dir = std::env::temp_dir().join("beamlight-xdg-runtime");
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -148,9 +164,52 @@ fn ci() -> Result<()> {
             use std::os::unix::fs::PermissionsExt;
             std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))?;
         }
-        tests.env("XDG_RUNTIME_DIR", dir);
+        c.env("XDG_RUNTIME_DIR", dir);
     }
-    run_tests(&mut tests)
+    Ok(c)
+}
+
+/// `cargo xtask fuzz`: each fuzz target for `seconds`, seeded with the broken-scene corpus.
+fn fuzz(seconds: u64) -> Result<()> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let have_fuzz = Command::new(&cargo)
+        .args(["fuzz", "--version"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have_fuzz {
+        run(Command::new(&cargo).args(["install", "cargo-fuzz", "--locked"]))?;
+    }
+    let fuzz_dir = root().join("fuzz");
+    let bad = root().join("tests/bad_scenes");
+    for (target, exts) in [("scene_toml", &["toml"][..]), ("gltf", &["gltf", "glb"][..])] {
+        let corpus = fuzz_dir.join("corpus").join(target);
+        std::fs::create_dir_all(&corpus)?;
+        for entry in std::fs::read_dir(&bad)? {
+            let path = entry?.path();
+            if path
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| exts.contains(&e))
+            {
+                std::fs::copy(&path, corpus.join(path.file_name().expect("a file")))?;
+            }
+        }
+        // The stable toolchain accepts cargo-fuzz's -Z flags with RUSTC_BOOTSTRAP; without a
+        // sanitizer libFuzzer still catches panics, and Rust needs no ASan for memory safety.
+        run(Command::new(&cargo)
+            .current_dir(&fuzz_dir)
+            .env("RUSTC_BOOTSTRAP", "1")
+            .args([
+                "fuzz",
+                "run",
+                "--sanitizer",
+                "none",
+                target,
+                corpus.to_str().expect("UTF-8 path"),
+            ])
+            .args(["--", &format!("-max_total_time={seconds}")]))?;
+    }
+    Ok(())
 }
 
 /// Runs `cargo test`, passing its output through, and ends with one line totalling every test
