@@ -86,6 +86,12 @@ pub fn files() -> Vec<(String, Vec<u8>)> {
         b.mesh("Statue", &p, &i, None, None);
         out.push(("nan_position.gltf", b.to_json_string().into_bytes()));
     }
+    // A primitive's POSITION names an accessor that does not exist (found by `cargo xtask
+    // fuzz`: the gltf crate's validator panicked on it).
+    out.push((
+        "position_accessor_out_of_range.gltf",
+        patched(|v| v["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(7)),
+    ));
     out.push((
         "required_extension.gltf",
         patched(|v| {

@@ -733,6 +733,10 @@ const BAD_SCENES: &[(&str, &str)] = &[
         "required_extension.gltf",
         "required extension 'KHR_draco_mesh_compression' is not supported",
     ),
+    (
+        "position_accessor_out_of_range.gltf",
+        "mesh 0 primitive 0 names accessor 7 (there are",
+    ),
     ("orthographic.gltf", "orthographic cameras are unsupported"),
     ("node_cycle.gltf", "reached twice"),
     ("malformed.toml", "TOML parse error at line 4"),

@@ -59,9 +59,33 @@ pub(super) fn read_gltf(src: &Src, bytes: &[u8], warnings: &mut Vec<String>) -> 
             ));
         }
     }
+    // The gltf crate's validation hook for primitives indexes the POSITION accessor before the
+    // range check runs (found by `cargo xtask fuzz`): check every accessor a primitive names
+    // first, and keep a guard for any other such panic.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let named = prim.attributes.values().chain(&prim.indices).chain(
+                prim.targets
+                    .iter()
+                    .flatten()
+                    .flat_map(|t| t.positions.iter().chain(&t.normals).chain(&t.tangents)),
+            );
+            for a in named {
+                if a.value() >= root.accessors.len() {
+                    return Err(src.err(format!(
+                        "invalid glTF: mesh {m} primitive {p} names accessor {} (there are {})",
+                        a.value(),
+                        root.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
     // The gltf crate's own validation: indices in range, required properties present, enum
     // values known. Its accessors may panic on documents that fail it.
-    let root = match gltf::Document::from_json(root) {
+    let validated = std::panic::catch_unwind(move || gltf::Document::from_json(root))
+        .map_err(|_| src.err("invalid glTF: the glTF validator failed on this document"))?;
+    let root = match validated {
         Ok(doc) => doc.into_json(),
         Err(gltf::Error::Validation(errors)) => {
             let list: Vec<String> = errors.iter().take(8).map(|(path, e)| format!("{path}: {e}")).collect();
