@@ -158,8 +158,8 @@ fn check_kernel(name: &str, k: GatherKernel, gpu: &[Rgb], cpu: &[Rgb]) {
         );
     }
     // Nearly every record agrees to 1e-4. The few that may not are ill-conditioned in
-    // f32 on both sides, so CPU and GPU rounding (the GPU may fuse multiply-adds; its tan
-    // and atan2 are not libm's) land apart: an equiangular sample next to a nearly
+    // f32 on both sides, so CPU and GPU rounding (the GPU may fuse multiply-adds; its exp
+    // and log are not libm's, its atan and tan ours) land apart: an equiangular sample next to a nearly
     // singular VRL–camera-ray pair, where t = δ + h·tan θ with θ → ±π/2 amplifies one ulp
     // of θ by x²/h, or a ratio-tracking step whose comparison against a cell boundary
     // flips and changes the number of draws. Neither shifts a component's total.
