@@ -160,6 +160,7 @@ struct RenderArgs {
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
 pub fn main() -> ExitCode {
     let start = Instant::now();
+    let runtime_dir = quiet_vulkan_loader();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(*args, start),
@@ -174,6 +175,9 @@ pub fn main() -> ExitCode {
             check_output_path(&output, "exr").and_then(|()| runs::merge(&parts, &output, preview.as_deref(), exposure))
         }
     };
+    if let Some(dir) = runtime_dir {
+        let _ = std::fs::remove_dir_all(dir);
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
         // The image is written; the exit code still tells a script the render did not finish.
@@ -402,6 +406,29 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         args.output.display()
     );
     Ok(())
+}
+
+/// Mesa's Vulkan drivers print "error: XDG_RUNTIME_DIR is invalid or not set" on every device
+/// open without that variable (containers, CI), which reads like one of ours: give the process
+/// a private runtime directory when it has none (returned, to be removed at exit).
+fn quiet_vulkan_loader() -> Option<PathBuf> {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return None;
+    }
+    let dir = std::env::temp_dir().join(format!("beamlight-runtime-{}", std::process::id()));
+    #[cfg(unix)]
+    let made = {
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new().mode(0o700).create(&dir).is_ok()
+    };
+    #[cfg(not(unix))]
+    let made = std::fs::create_dir(&dir).is_ok();
+    if !made {
+        return None;
+    }
+    // SAFETY: called first thing in `main`, before any thread exists.
+    unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
+    Some(dir)
 }
 
 /// Picks the device for the gathers (`--backend`) and says what runs where. `gpu` needs a
