@@ -168,19 +168,9 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
         };
         let cpu = clock.elapsed().as_secs_f64();
         std::hint::black_box(total);
-        let records = if matches!(k, GatherKernel::VplSurface | GatherKernel::VrlSurface) {
-            sps.len()
-        } else {
-            segs.len()
-        };
-        let lights_n = if matches!(k, GatherKernel::VplSurface | GatherKernel::VplMedia) {
-            lights.vpls.len()
-        } else {
-            lights.vrls.len()
-        };
         report(
             &format!("gathers {}", k.name()),
-            (records * lights_n) as f64,
+            (inputs.records(k) * inputs.lights(k)) as f64,
             g.kernel_seconds[k as usize],
             cpu,
         );

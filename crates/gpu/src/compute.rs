@@ -52,19 +52,8 @@ pub fn bind_group(
     layout: &wgpu::BindGroupLayout,
     buffers: &[&wgpu::Buffer],
 ) -> wgpu::BindGroup {
-    let entries: Vec<_> = buffers
-        .iter()
-        .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &entries,
-    })
+    let whole: Vec<Binding> = buffers.iter().map(|b| Binding::Whole(b)).collect();
+    bind_group_ranges(gpu, label, layout, &whole)
 }
 
 /// A buffer bound whole, or a byte range of it.
@@ -172,29 +161,14 @@ pub fn max_binding(gpu: &Gpu) -> u64 {
 
 /// Checks a storage buffer of `bytes` against the adapter's per-binding limit.
 pub fn check_binding(gpu: &Gpu, what: &'static str, bytes: u64) -> Result<(), GpuError> {
-    let allowed = max_binding(gpu);
-    if bytes > allowed {
-        return Err(GpuError::Limit {
-            what,
-            needed: bytes,
-            allowed,
-        });
-    }
-    Ok(())
+    check_size(what, bytes, max_binding(gpu))
 }
 
 /// A read-only storage buffer holding `data` (one zeroed element when empty: bindings may
-/// not be empty).
+/// not be empty), bound whole.
 pub fn storage<T: Pod>(gpu: &Gpu, what: &'static str, data: &[T]) -> Result<wgpu::Buffer, GpuError> {
-    let zero = [T::zeroed()];
-    let data = if data.is_empty() { &zero[..] } else { data };
-    let bytes: &[u8] = bytemuck::cast_slice(data);
-    check_binding(gpu, what, bytes.len() as u64)?;
-    Ok(gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(what),
-        contents: bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-    }))
+    check_binding(gpu, what, (data.len().max(1) * size_of::<T>()) as u64)?;
+    storage_unbound(gpu, what, data)
 }
 
 /// A read-only storage buffer holding `data`, which may exceed one binding (up to the
@@ -203,7 +177,7 @@ pub fn storage_unbound<T: Pod>(gpu: &Gpu, what: &'static str, data: &[T]) -> Res
     let zero = [T::zeroed()];
     let data = if data.is_empty() { &zero[..] } else { data };
     let bytes: &[u8] = bytemuck::cast_slice(data);
-    check_buffer(gpu, what, bytes.len() as u64)?;
+    check_size(what, bytes.len() as u64, gpu.limits.max_buffer_size)?;
     Ok(gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(what),
         contents: bytes,
@@ -211,13 +185,9 @@ pub fn storage_unbound<T: Pod>(gpu: &Gpu, what: &'static str, data: &[T]) -> Res
     }))
 }
 
-fn check_buffer(gpu: &Gpu, what: &'static str, bytes: u64) -> Result<(), GpuError> {
-    if bytes > gpu.limits.max_buffer_size {
-        return Err(GpuError::Limit {
-            what,
-            needed: bytes,
-            allowed: gpu.limits.max_buffer_size,
-        });
+fn check_size(what: &'static str, needed: u64, allowed: u64) -> Result<(), GpuError> {
+    if needed > allowed {
+        return Err(GpuError::Limit { what, needed, allowed });
     }
     Ok(())
 }
@@ -231,22 +201,16 @@ pub fn uniform<T: Pod>(gpu: &Gpu, what: &'static str, value: &T) -> wgpu::Buffer
     })
 }
 
-/// A zeroed read-write storage buffer of `count` elements of `T`, readable back.
+/// A zeroed read-write storage buffer of `count` elements of `T`, readable back, bound whole.
 pub fn output<T: Pod>(gpu: &Gpu, what: &'static str, count: usize) -> Result<wgpu::Buffer, GpuError> {
-    let bytes = (count.max(1) * size_of::<T>()) as u64;
-    check_binding(gpu, what, bytes)?;
-    Ok(gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(what),
-        size: bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    }))
+    check_binding(gpu, what, (count.max(1) * size_of::<T>()) as u64)?;
+    output_unbound::<T>(gpu, what, count)
 }
 
 /// [`output`] for a buffer that may exceed one binding (bound in ranges).
 pub fn output_unbound<T: Pod>(gpu: &Gpu, what: &'static str, count: usize) -> Result<wgpu::Buffer, GpuError> {
     let bytes = (count.max(1) * size_of::<T>()) as u64;
-    check_buffer(gpu, what, bytes)?;
+    check_size(what, bytes, gpu.limits.max_buffer_size)?;
     Ok(gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(what),
         size: bytes,

@@ -151,6 +151,26 @@ pub struct GatherInputs<'a> {
     pub vbl: VblSettings,
 }
 
+impl GatherInputs<'_> {
+    /// Gather records kernel `k` runs over.
+    pub fn records(&self, k: GatherKernel) -> usize {
+        if k.on_surfaces() {
+            self.shading_points.len()
+        } else {
+            self.media_segments.len()
+        }
+    }
+
+    /// Virtual lights kernel `k` reads.
+    pub fn lights(&self, k: GatherKernel) -> usize {
+        if k.reads_vpls() {
+            self.vpls.len()
+        } else {
+            self.vrls.len()
+        }
+    }
+}
+
 /// Per gather record, each kernel's estimate (empty for kernels not run), and the GPU time
 /// each kernel took (0 without timestamp queries or when not run).
 #[derive(Clone, Debug, Default)]
@@ -234,17 +254,7 @@ impl Gathers {
         run: [bool; KERNELS],
     ) -> Result<PendingGathers, GpuError> {
         let wanted = |k: GatherKernel| {
-            let records = if k.on_surfaces() {
-                inputs.shading_points.len()
-            } else {
-                inputs.media_segments.len()
-            };
-            let lights = if k.reads_vpls() {
-                inputs.vpls.len()
-            } else {
-                inputs.vrls.len()
-            };
-            run[k as usize] && self.kernels[k as usize].is_some() && records > 0 && lights > 0
+            run[k as usize] && self.kernels[k as usize].is_some() && inputs.records(k) > 0 && inputs.lights(k) > 0
         };
         // Upload only what a dispatched kernel reads.
         let any = |f: fn(GatherKernel) -> bool| GatherKernel::ALL.iter().any(|&k| wanted(k) && f(k));
@@ -291,16 +301,7 @@ impl Gathers {
         let mut timed = Vec::new();
         let chunk = self.records_per_dispatch(gpu);
         for k in GatherKernel::ALL.into_iter().filter(|&k| wanted(k)) {
-            let records = if k.on_surfaces() {
-                inputs.shading_points.len()
-            } else {
-                inputs.media_segments.len()
-            };
-            let lights = if k.reads_vpls() {
-                inputs.vpls.len()
-            } else {
-                inputs.vrls.len()
-            };
+            let (records, lights) = (inputs.records(k), inputs.lights(k));
             let out = compute::output_unbound::<[f32; 4]>(gpu, "gathered", records)?;
             let kernel = self.kernels[k as usize].as_ref().expect("wanted kernels exist");
             // All of one kernel's dispatches go into one timed compute pass.

@@ -13,7 +13,7 @@ use crate::{
     layout::{self, BvhNode, NO_MEDIUM, SceneInfo, TRI_NULL_INTERFACE, TriangleInfo},
 };
 use beamlight_scene::Scene;
-use obvhs::{BvhBuildParams, bvh2::Bvh2, triangle::Triangle as ObvhsTriangle};
+use obvhs::{BvhBuildParams, bvh2::Bvh2};
 
 /// The flattened BVH2 and leaf-ordered triangles, before upload. `nodes` are in depth-first
 /// preorder: an inner node's first child follows it, and its `first` is the index just past
@@ -34,14 +34,7 @@ impl FlatBvh {
                 leaf_slot: Vec::new(),
             };
         }
-        let prims: Vec<ObvhsTriangle> = positions
-            .iter()
-            .map(|p| ObvhsTriangle {
-                v0: p[0].into(),
-                v1: p[1].into(),
-                v2: p[2].into(),
-            })
-            .collect();
+        let prims = beamlight_trace::bvh::obvhs_triangles(positions);
         let mut build_time = std::time::Duration::ZERO;
         let bvh: Bvh2 =
             obvhs::bvh2::builder::build_bvh2_from_tris(&prims, BvhBuildParams::medium_build(), &mut build_time);
@@ -108,11 +101,8 @@ fn preorder(bvh: &Bvh2) -> Vec<BvhNode> {
 
 /// The scene's buffers and bind group (group 0 of the tracing kernels).
 pub struct GpuScene {
-    pub info: SceneInfo,
     pub layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
-    /// Bytes uploaded.
-    pub bytes: u64,
 }
 
 /// The slots of bind group 0, in binding order (see `lib/scene.wgsl`): the scene info, then
@@ -230,15 +220,9 @@ impl GpuScene {
             compute::storage(gpu, "density grids", grid)?,
             compute::storage(gpu, "triangles beyond the first binding", &bvh.triangles[split..])?,
         ];
-        let bytes = buffers.iter().map(|b| b.size()).sum();
         let layout = scene_layout(gpu);
         let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();
         let bind_group = compute::bind_group(gpu, "scene", &layout, &refs);
-        Ok(GpuScene {
-            info: scene_info,
-            layout,
-            bind_group,
-            bytes,
-        })
+        Ok(GpuScene { layout, bind_group })
     }
 }

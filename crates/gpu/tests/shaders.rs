@@ -35,19 +35,25 @@ fn every_file_on_disk_is_compiled_in() {
     }
 }
 
+/// Composes `name` (a path under `shaders/`), parses and validates it with naga.
+fn validated(name: &str) -> naga::Module {
+    let source = shaders::compose(name).unwrap();
+    let module =
+        naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{name}:\n{}", e.emit_to_string(&source)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+    module
+}
+
 #[test]
 fn every_kernel_composes_and_validates() {
     let mut count = 0;
     for name in shaders::kernels() {
-        let source = shaders::compose(name).unwrap();
-        let module =
-            naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{name}:\n{}", e.emit_to_string(&source)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+        let module = validated(name);
         assert!(
             module.entry_points.iter().any(|e| e.name == "main"),
             "{name} has no main"
@@ -62,15 +68,7 @@ fn every_library_file_validates_with_what_it_uses() {
     // A library file composed on its own must also be valid WGSL (no hidden dependency on
     // what a kernel happens to include before it).
     for (name, _) in SOURCES.iter().filter(|(n, _)| n.starts_with("lib/")) {
-        let source = shaders::compose(name).unwrap();
-        let module =
-            naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{name}:\n{}", e.emit_to_string(&source)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+        validated(name);
     }
 }
 

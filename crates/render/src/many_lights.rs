@@ -146,23 +146,6 @@ pub fn gpu_has_kernels(lights: VirtualLights) -> bool {
     gpu_kernels(lights).iter().all(|k| k.available())
 }
 
-/// Renders one pass: `out[c][pixel]` receives component `c`'s estimate for each pixel. With
-/// `gpu` (and kernels for the method, [`gpu_has_kernels`]), the four virtual-light gathers run
-/// there while the CPU computes direct light and caustics.
-pub fn many_light_pass(
-    ts: &TraceScene,
-    settings: &ManyLightSettings,
-    w: u32,
-    h: u32,
-    seed: u32,
-    pass: u32,
-    out: &mut [Vec<Rgb>; N],
-    gpu: Option<&GpuBackend>,
-) -> Result<PassTimes, GpuError> {
-    let in_flight = start_pass(ts, settings, w, h, seed, pass, gpu)?;
-    in_flight.finish(gpu, out)
-}
-
 /// A pass whose CPU share is done and whose GPU gathers may still be running: the
 /// orchestrator starts the next pass's tracing before it waits for this one
 /// ([`crate::progressive`] keeps one pass in flight).

@@ -34,14 +34,7 @@ impl Bvh {
                 positions: Vec::new(),
             };
         }
-        let prims: Vec<ObvhsTriangle> = tris
-            .iter()
-            .map(|p| ObvhsTriangle {
-                v0: p[0].into(),
-                v1: p[1].into(),
-                v2: p[2].into(),
-            })
-            .collect();
+        let prims = obvhs_triangles(&tris);
         let mut build_time = std::time::Duration::ZERO;
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&prims, BvhBuildParams::medium_build(), &mut build_time);
         let positions = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
@@ -93,6 +86,17 @@ impl Bvh {
                 .map_or(f32::INFINITY, |h| h.0 + shift)
         })
     }
+}
+
+/// Triangles in obvhs's form, for its BVH builders (the CPU's CWBVH, the GPU's BVH2).
+pub fn obvhs_triangles(tris: &[[Vec3; 3]]) -> Vec<ObvhsTriangle> {
+    tris.iter()
+        .map(|p| ObvhsTriangle {
+            v0: p[0].into(),
+            v1: p[1].into(),
+            v2: p[2].into(),
+        })
+        .collect()
 }
 
 /// obvhs's wide-node test ignores boxes the ray leaves before t = 1e-4 (an absolute epsilon),
