@@ -462,9 +462,9 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
             None => (None, "cpu (no Vulkan adapter)".to_string()),
             // On a CPU adapter (lavapipe) the kernels share the cores with the CPU estimators:
             // measured with `cargo bench -p beamlight-gpu`, the vbl kernels (numerical
-            // integration over each sphere, mostly arithmetic) run 1.6-1.9x faster than the CPU
+            // integration over each sphere, mostly arithmetic) run 1.5-2.1x faster than the CPU
             // twins on both cores, the vrl ones (mostly BVH traversal, which diverges across
-            // SIMD lanes) 0.4-0.6x as fast.
+            // SIMD lanes) 0.4-0.65x as fast.
             Some(a) if beamlight_gpu::device::is_cpu_adapter(a) && method != Method::Vbl => (
                 None,
                 format!(
