@@ -155,6 +155,10 @@ struct RenderArgs {
     /// and each GPU kernel's time (from timestamp queries).
     #[arg(long)]
     stats: bool,
+    /// Write the run's timings as JSON to FILE (for `cargo xtask bench`): process time with
+    /// and without start-up, passes, and the CPU and GPU seconds of each transport component.
+    #[arg(long, value_name = "FILE")]
+    stats_json: Option<PathBuf>,
 }
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
@@ -335,6 +339,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         components: components.to_vec(),
     };
     runs::catch_interrupts();
+    let startup = start.elapsed();
     let bar = progress_bar(&budget);
     let outputs = Outputs {
         args: &args,
@@ -386,6 +391,10 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     }
     if args.stats {
         print_stats(&result.pass_times);
+    }
+    if let Some(path) = &args.stats_json {
+        let json = stats_json(&ts, &opts, &backend, &result, startup, start.elapsed());
+        output::write_atomic(path, json.as_bytes())?;
     }
     if runs::interrupted() {
         eprintln!(
@@ -523,6 +532,63 @@ fn print_stats(times: &[PassTimes]) {
             100.0 * gpu / wall.max(1e-9)
         );
     }
+}
+
+/// The `--stats-json` record: what a benchmark needs to know about a run's time. Component
+/// CPU seconds are summed over threads; GPU seconds come from timestamp queries of each
+/// gather kernel (assigned to the component it computes). `pt` renders the whole image in one
+/// estimator, reported as `path_tracing`.
+fn stats_json(
+    ts: &TraceScene,
+    opts: &RenderOptions,
+    backend: &str,
+    result: &beamlight_render::RenderResult,
+    startup: Duration,
+    process: Duration,
+) -> String {
+    use serde_json::json;
+    let times = &result.pass_times;
+    let total = |f: &dyn Fn(&PassTimes) -> f64| times.iter().map(f).sum::<f64>() + 0.0;
+    let needed = SceneFeatures::of(&ts.scene).needed();
+    let kernels = many_lights::gpu_kernels(match opts.method {
+        Method::Vbl => VirtualLights::Beams,
+        _ => VirtualLights::Rays,
+    });
+    let gpu_component = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
+    let mut components = serde_json::Map::new();
+    for (k, c) in Component::ALL.iter().enumerate() {
+        let gpu: f64 = kernels
+            .iter()
+            .zip(gpu_component)
+            .filter(|(_, gc)| gc == c)
+            .map(|(kernel, _)| total(&|t| t.kernels[*kernel as usize]))
+            .sum();
+        components.insert(
+            c.name().to_string(),
+            json!({
+                "needed": needed.contains(c),
+                "cpu_seconds": total(&|t| t.component_cpu[k]),
+                "gpu_seconds": gpu,
+            }),
+        );
+    }
+    let value = json!({
+        "method": opts.method.name(),
+        "backend": backend,
+        "width": opts.width,
+        "height": opts.height,
+        "seed": opts.seed,
+        "passes": result.passes,
+        "process_seconds": process.as_secs_f64(),
+        "startup_seconds": startup.as_secs_f64(),
+        "render_seconds": result.elapsed.as_secs_f64(),
+        "path_tracing_seconds": if opts.method == Method::Pt { result.elapsed.as_secs_f64() } else { 0.0 },
+        "trace_seconds": total(&|t| t.trace.as_secs_f64()),
+        "cpu_estimates_seconds": total(&|t| t.cpu_estimates.as_secs_f64()),
+        "gpu_wait_seconds": total(&|t| t.gpu_wait.as_secs_f64()),
+        "components": components,
+    });
+    serde_json::to_string_pretty(&value).expect("JSON of numbers and strings")
 }
 
 /// Where and how the render's images are written (at the end, and with `--write-every`).

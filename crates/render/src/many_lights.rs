@@ -131,6 +131,10 @@ pub struct PassTimes {
     pub kernels: [f64; KERNELS],
     /// Wall time from the previous pass's completion to this one's (set by the orchestrator).
     pub wall: Duration,
+    /// CPU time (summed over threads, seconds) spent in each component's estimator on the CPU,
+    /// in [`Component::ALL`] order. A component whose records or virtual lights are empty
+    /// (no media segments, no VRLs in a scene without media) is not timed: it stays at 0.
+    pub component_cpu: [f64; N],
 }
 
 /// The GPU kernels of these settings' method, in (Lss, Lsm, Lms, Lmm) order.
@@ -253,30 +257,33 @@ pub fn start_pass(
     // Each gather point against every virtual light: the sum over a light set divided by its
     // path count M is the per-pass estimate.
     let (clamp, vbl) = (settings.clamp, &settings.vbl);
-    let at_points: Vec<(u32, [Rgb; N])> = gather
+    let at_points: Vec<(u32, [Rgb; N], [f64; N])> = gather
         .shading_points
         .par_iter()
         .enumerate()
         .map(|(i, sp)| {
             let mut s = stream(0, i);
             let mut c = [Rgb::ZERO; N];
-            c[Component::Direct as usize] = direct::direct_at_surface(ts, sp, &mut s);
+            let mut t = [0f64; N];
+            c[Component::Direct as usize] = timed(&mut t[Component::Direct as usize], || {
+                direct::direct_at_surface(ts, sp, &mut s)
+            });
             if on_cpu {
                 let (lss, lsm) = if beams_on {
                     (
-                        sum(&lights.vpls, |j, v| {
+                        timed_sum(&mut t[Component::Lss as usize], &lights.vpls, |j, v| {
                             vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j))
                         }),
-                        sum(&lights.vrls, |j, v| {
+                        timed_sum(&mut t[Component::Lsm as usize], &lights.vrls, |j, v| {
                             vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VrlToSurface, i, j))
                         }),
                     )
                 } else {
                     (
-                        sum(&lights.vpls, |j, v| {
+                        timed_sum(&mut t[Component::Lss as usize], &lights.vpls, |j, v| {
                             vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VplToSurface, i, j))
                         }),
-                        sum(&lights.vrls, |j, v| {
+                        timed_sum(&mut t[Component::Lsm as usize], &lights.vrls, |j, v| {
                             vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VrlToSurface, i, j))
                         }),
                     )
@@ -284,34 +291,41 @@ pub fn start_pass(
                 c[Component::Lss as usize] = lss / m;
                 c[Component::Lsm as usize] = lsm / m;
             }
-            c[Component::CausticSurface as usize] = photons.radiance(ts, sp) / m;
-            (sp.pixel, c)
+            if !lights.caustic_photons.is_empty() {
+                c[Component::CausticSurface as usize] = timed(&mut t[Component::CausticSurface as usize], || {
+                    photons.radiance(ts, sp) / m
+                });
+            }
+            (sp.pixel, c, t)
         })
         .collect();
-    let along_segments: Vec<(u32, [Rgb; N])> = gather
+    let along_segments: Vec<(u32, [Rgb; N], [f64; N])> = gather
         .media_segments
         .par_iter()
         .enumerate()
         .map(|(i, seg)| {
             let mut s = stream(1, i);
             let mut c = [Rgb::ZERO; N];
-            c[Component::Direct as usize] = direct::direct_in_medium(ts, seg, &mut s);
+            let mut t = [0f64; N];
+            c[Component::Direct as usize] = timed(&mut t[Component::Direct as usize], || {
+                direct::direct_in_medium(ts, seg, &mut s)
+            });
             if on_cpu {
                 let (lms, lmm) = if beams_on {
                     (
-                        sum(&lights.vpls, |j, v| {
+                        timed_sum(&mut t[Component::Lms as usize], &lights.vpls, |j, v| {
                             vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j))
                         }),
-                        sum(&lights.vrls, |j, v| {
+                        timed_sum(&mut t[Component::Lmm as usize], &lights.vrls, |j, v| {
                             vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VrlToMedia, i, j))
                         }),
                     )
                 } else {
                     (
-                        sum(&lights.vpls, |j, v| {
+                        timed_sum(&mut t[Component::Lms as usize], &lights.vpls, |j, v| {
                             vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VplToMedia, i, j))
                         }),
-                        sum(&lights.vrls, |j, v| {
+                        timed_sum(&mut t[Component::Lmm as usize], &lights.vrls, |j, v| {
                             vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VrlToMedia, i, j))
                         }),
                     )
@@ -319,13 +333,18 @@ pub fn start_pass(
                 c[Component::Lms as usize] = lms / m;
                 c[Component::Lmm as usize] = lmm / m;
             }
-            c[Component::CausticVolume as usize] = beams.radiance(ts, seg, &mut s) / m;
-            (seg.pixel, c)
+            if !lights.photon_beams.is_empty() {
+                c[Component::CausticVolume as usize] = timed(&mut t[Component::CausticVolume as usize], || {
+                    beams.radiance(ts, seg, &mut s) / m
+                });
+            }
+            (seg.pixel, c, t)
         })
         .collect();
-    for (pixel, c) in at_points.into_iter().chain(along_segments) {
+    for (pixel, c, t) in at_points.into_iter().chain(along_segments) {
         for (k, v) in c.into_iter().enumerate() {
             out[k][pixel as usize] += v;
+            times.component_cpu[k] += t[k];
         }
     }
     times.cpu_estimates = clock.elapsed();
@@ -340,7 +359,19 @@ pub fn start_pass(
     })
 }
 
-/// Σ over a light set of each virtual light's contribution, `f(index, light)`.
-fn sum<T>(lights: &[T], mut f: impl FnMut(usize, &T) -> Rgb) -> Rgb {
-    lights.iter().enumerate().map(|(j, l)| f(j, l)).sum()
+/// Σ over a light set of each virtual light's contribution, `f(index, light)`, its CPU time
+/// added to `seconds` (an empty set costs nothing and is not timed).
+fn timed_sum<T>(seconds: &mut f64, lights: &[T], mut f: impl FnMut(usize, &T) -> Rgb) -> Rgb {
+    if lights.is_empty() {
+        return Rgb::ZERO;
+    }
+    timed(seconds, || lights.iter().enumerate().map(|(j, l)| f(j, l)).sum())
+}
+
+/// Runs `f`, adding its duration to `seconds` (per-component CPU time for `--stats`).
+fn timed<R>(seconds: &mut f64, f: impl FnOnce() -> R) -> R {
+    let clock = Instant::now();
+    let r = f();
+    *seconds += clock.elapsed().as_secs_f64();
+    r
 }
