@@ -17,6 +17,7 @@ pub mod gltf_writer;
 pub mod light;
 pub mod load;
 pub mod medium;
+pub mod noise;
 pub mod phase;
 pub mod rng;
 pub mod sampling;
