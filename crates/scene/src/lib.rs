@@ -23,6 +23,7 @@ pub mod rng;
 pub mod sampling;
 pub mod scene;
 pub mod texture;
+pub mod vdb;
 
 pub use error::SceneError;
 pub use scene::Scene;

@@ -1,15 +1,16 @@
 //! Media from the sidecar: validation, medium regions (closed meshes), nesting, density grids.
 use super::TomlSrc;
 use super::build::{Geometry, Traversal, mesh_label, name_list, node_label};
-use super::sidecar::{Rgb3, Sidecar};
+use super::sidecar::{DensityToml, Num, PerlinToml, Rgb3, Sidecar};
 use crate::SceneError;
 use crate::medium::{DensityGrid, Medium, parse_grid};
+use crate::noise::PerlinDensity;
+use crate::vdb::{MAX_DENSE_VOXELS, read_vdb};
 use crate::scene::MediumInterface;
 use glam::{DVec3, UVec3, Vec3};
 use gltf::json;
 use std::collections::HashMap;
 use std::ops::Range;
-use std::path::PathBuf;
 use toml::Spanned;
 
 /// One instance (node) of a mesh that bounds a medium.
@@ -24,10 +25,16 @@ pub(super) struct RegionInstance {
     pub raw: Vec<[Vec3; 3]>,
 }
 
+enum GridSource {
+    Values(Vec<f32>),
+    Perlin(PerlinDensity),
+}
+
 struct GridPlan {
-    file: PathBuf,
+    /// What the density is, for messages ("the density grid 'x.bgrid'", "the perlin density").
+    what: String,
     res: UVec3,
-    values: Vec<f32>,
+    source: GridSource,
     bounds: Option<(Vec3, Vec3)>,
 }
 
@@ -168,48 +175,7 @@ pub(super) fn plan_media(
         };
         let grid = match &m.density {
             None => None,
-            Some(d) => {
-                let d = d.get_ref();
-                let file = t.src.dir().join(d.grid.get_ref());
-                let bytes = std::fs::read(&file).map_err(|e| {
-                    t.err_at(
-                        d.grid.span(),
-                        format!("{head}: density grid '{}' cannot be read: {e}", file.display()),
-                    )
-                })?;
-                let (res, values) = parse_grid(&bytes).map_err(|e| {
-                    let (line, col) = super::sidecar::line_col(&t.text, d.grid.span().start);
-                    SceneError::invalid(
-                        &file,
-                        format!(
-                            "{e} (density grid of {head} in {}, line {line}, column {col})",
-                            t.src.name()
-                        ),
-                    )
-                })?;
-                let bounds = match &d.bounds {
-                    None => None,
-                    Some(b) => {
-                        let [lo, hi] = b.get_ref().map(Vec3::from);
-                        if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
-                            return Err(t.err_at(
-                                b.span(),
-                                format!(
-                                    "{head}: density bounds {:?} must be finite with min < max on every axis",
-                                    b.get_ref()
-                                ),
-                            ));
-                        }
-                        Some((lo, hi))
-                    }
-                };
-                Some(GridPlan {
-                    file,
-                    res,
-                    values,
-                    bounds,
-                })
-            }
+            Some(d) => Some(plan_density(t, &head, d.span(), d.get_ref())?),
         };
         plan.media.push(PlannedMedium {
             medium: Medium {
@@ -225,6 +191,184 @@ pub(super) fn plan_media(
         });
     }
     Ok(plan)
+}
+
+fn density_bounds(t: &TomlSrc, head: &str, d: &DensityToml) -> Result<Option<(Vec3, Vec3)>, SceneError> {
+    let Some(b) = &d.bounds else { return Ok(None) };
+    let [lo, hi] = b.get_ref().map(Vec3::from);
+    if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
+        return Err(t.err_at(
+            b.span(),
+            format!(
+                "{head}: density bounds {:?} must be finite with min < max on every axis",
+                b.get_ref()
+            ),
+        ));
+    }
+    Ok(Some((lo, hi)))
+}
+
+/// Reads or checks one `density = {…}` table.
+fn plan_density(t: &TomlSrc, head: &str, span: Range<usize>, d: &DensityToml) -> Result<GridPlan, SceneError> {
+    let bounds = density_bounds(t, head, d)?;
+    match (&d.grid, &d.perlin) {
+        (Some(_), Some(p)) => Err(t.err_at(
+            p.span(),
+            format!("{head}: density has both 'grid' and 'perlin'; give one"),
+        )),
+        (None, None) => Err(t.err_at(
+            span,
+            format!("{head}: density needs 'grid = \"file\"' (.vdb or .bgrid) or 'perlin = {{ … }}'"),
+        )),
+        (None, Some(p)) => {
+            if let Some(n) = &d.name {
+                return Err(t.err_at(
+                    n.span(),
+                    format!("{head}: density 'name' selects a grid in a .vdb file; it does not apply to 'perlin'"),
+                ));
+            }
+            let params = perlin_params(t, head, p.get_ref())?;
+            let res = match &d.resolution {
+                None => UVec3::splat(64),
+                Some(r) => {
+                    let v = r.get_ref().0;
+                    let total = v.iter().map(|&x| x.max(0) as u128).product::<u128>();
+                    if v.iter().any(|&x| !(1..=4096).contains(&x)) || total > MAX_DENSE_VOXELS as u128 {
+                        return Err(t.err_at(
+                            r.span(),
+                            format!(
+                                "{head}: density resolution {v:?} must be 1 to 4096 per axis and at most {MAX_DENSE_VOXELS} voxels in all (256^3)"
+                            ),
+                        ));
+                    }
+                    UVec3::new(v[0] as u32, v[1] as u32, v[2] as u32)
+                }
+            };
+            Ok(GridPlan {
+                what: "the perlin density".into(),
+                res,
+                source: GridSource::Perlin(params),
+                bounds,
+            })
+        }
+        (Some(g), None) => {
+            if let Some(r) = &d.resolution {
+                return Err(t.err_at(
+                    r.span(),
+                    format!("{head}: density 'resolution' applies only to 'perlin' (a grid file has its own)"),
+                ));
+            }
+            let file = t.src.dir().join(g.get_ref());
+            let is_vdb = file
+                .extension()
+                .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("vdb"));
+            if let (Some(n), false) = (&d.name, is_vdb) {
+                return Err(t.err_at(
+                    n.span(),
+                    format!("{head}: density 'name' selects a grid in a .vdb file; '{}' is not one", g.get_ref()),
+                ));
+            }
+            let bytes = std::fs::read(&file).map_err(|e| {
+                t.err_at(
+                    g.span(),
+                    format!("{head}: density grid '{}' cannot be read: {e}", file.display()),
+                )
+            })?;
+            let in_file = |e: String| {
+                let (line, col) = super::sidecar::line_col(&t.text, g.span().start);
+                SceneError::invalid(
+                    &file,
+                    format!("{e} (density grid of {head} in {}, line {line}, column {col})", t.src.name()),
+                )
+            };
+            let what = format!("the density grid '{}'", file.display());
+            if is_vdb {
+                let name = d.name.as_ref().map_or("density", |n| n.get_ref().as_str());
+                let v = read_vdb(&bytes, name).map_err(in_file)?;
+                let (lo, hi) = match bounds {
+                    None => v.world_box(),
+                    Some((lo, hi)) => v.box_for_bounds(lo.as_dvec3(), hi.as_dvec3()),
+                };
+                let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
+                if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
+                    return Err(in_file(format!("grid '{name}' maps to the empty or infinite world box {lo}..{hi}")));
+                }
+                Ok(GridPlan {
+                    what,
+                    res: v.res,
+                    source: GridSource::Values(v.values),
+                    bounds: Some((lo, hi)),
+                })
+            } else {
+                let (res, values) = parse_grid(&bytes).map_err(in_file)?;
+                Ok(GridPlan {
+                    what,
+                    res,
+                    source: GridSource::Values(values),
+                    bounds,
+                })
+            }
+        }
+    }
+}
+
+/// Checks the `perlin = {…}` keys; missing ones take [`PerlinDensity::default`]'s values.
+fn perlin_params(t: &TomlSrc, head: &str, p: &PerlinToml) -> Result<PerlinDensity, SceneError> {
+    let def = PerlinDensity::default();
+    let num = |key: &str, v: &Option<toml::Spanned<Num>>, default: f32, ok: &dyn Fn(f64) -> bool, rule: &str| {
+        match v {
+            None => Ok(default),
+            Some(v) => {
+                let x = v.get_ref().0;
+                if x.is_finite() && ok(x) && (x as f32).is_finite() {
+                    Ok(x as f32)
+                } else {
+                    Err(t.err_at(v.span(), format!("{head}: density.perlin.{key} = {x} must be {rule}")))
+                }
+            }
+        }
+    };
+    let octaves = match &p.octaves {
+        None => def.octaves,
+        Some(o) => {
+            let v = *o.get_ref();
+            if !(1..=16).contains(&v) {
+                return Err(t.err_at(
+                    o.span(),
+                    format!("{head}: density.perlin.octaves = {v} must be between 1 and 16"),
+                ));
+            }
+            v as u32
+        }
+    };
+    let seed = match &p.seed {
+        None => def.seed,
+        Some(s) => {
+            let v = *s.get_ref();
+            u32::try_from(v).map_err(|_| {
+                t.err_at(
+                    s.span(),
+                    format!("{head}: density.perlin.seed = {v} must be between 0 and 4294967295"),
+                )
+            })?
+        }
+    };
+    Ok(PerlinDensity {
+        scale: num("scale", &p.scale, def.scale, &|x| x > 0.0 && x <= 1e4, "finite, > 0 and <= 10000")?,
+        octaves,
+        gain: num("gain", &p.gain, def.gain, &|x| (0.0..=4.0).contains(&x), "between 0 and 4")?,
+        lacunarity: num("lacunarity", &p.lacunarity, def.lacunarity, &|x| x > 0.0 && x <= 16.0, "> 0 and <= 16")?,
+        height_falloff: num(
+            "height_falloff",
+            &p.height_falloff,
+            def.height_falloff,
+            &|x| x.abs() <= 50.0,
+            "finite, between -50 and 50",
+        )?,
+        bias: num("bias", &p.bias, def.bias, &|x| x.abs() <= 1e6, "finite (|bias| <= 1e6)")?,
+        amplitude: num("amplitude", &p.amplitude, def.amplitude, &|x| x.abs() <= 1e6, "finite (|amplitude| <= 1e6)")?,
+        seed,
+    })
 }
 
 /// Checks that an instance is a closed, consistently oriented manifold; `Err` says why not.
@@ -464,13 +608,15 @@ pub(super) fn finish_media(
                 return Err(t.err_at(
                     pm.region_span.clone(),
                     format!(
-                        "[[media]] '{}': the density grid '{}' needs 'bounds' (the default box is empty or flat)",
-                        medium.name,
-                        g.file.display()
+                        "[[media]] '{}': {} needs 'bounds' (the default box is empty or flat)",
+                        medium.name, g.what
                     ),
                 ));
             };
-            medium.density = Some(DensityGrid::new(g.res, lo, hi, g.values));
+            medium.density = Some(match g.source {
+                GridSource::Values(values) => DensityGrid::new(g.res, lo, hi, values),
+                GridSource::Perlin(p) => p.bake(g.res, lo, hi),
+            });
         }
         media.push(medium);
     }

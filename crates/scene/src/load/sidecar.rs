@@ -41,10 +41,93 @@ pub(super) struct MediumToml {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct DensityToml {
-    /// A `.bgrid` file relative to the sidecar.
-    pub grid: Spanned<String>,
+    /// A density file relative to the sidecar: `.vdb` (OpenVDB) or our raw `.bgrid`.
+    pub grid: Option<Spanned<String>>,
+    /// The grid's name in a `.vdb` file (default "density").
+    pub name: Option<Spanned<String>>,
+    /// A procedural density.
+    pub perlin: Option<Spanned<PerlinToml>>,
+    /// Resolution of the baked procedural grid: `n` or `[nx, ny, nz]`.
+    pub resolution: Option<Spanned<Res3>>,
     /// `[[x0, y0, z0], [x1, y1, z1]]`, the world-space box the grid fills.
     pub bounds: Option<Spanned<[[f32; 3]; 2]>>,
+}
+
+/// `density = { perlin = { … } }`; every key optional (see `crate::noise`).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PerlinToml {
+    pub scale: Option<Spanned<Num>>,
+    pub octaves: Option<Spanned<i64>>,
+    pub gain: Option<Spanned<Num>>,
+    pub lacunarity: Option<Spanned<Num>>,
+    pub height_falloff: Option<Spanned<Num>>,
+    pub bias: Option<Spanned<Num>>,
+    pub amplitude: Option<Spanned<Num>>,
+    pub seed: Option<Spanned<i64>>,
+}
+
+/// A number written as a TOML integer or float.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Num(pub f64);
+
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Num;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Num, E> {
+                Ok(Num(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Num, E> {
+                Ok(Num(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Num, E> {
+                Ok(Num(v as f64))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A resolution written as one integer (all axes) or `[nx, ny, nz]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Res3(pub [i64; 3]);
+
+impl<'de> Deserialize<'de> for Res3 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Res3;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an integer or [nx, ny, nz]")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Res3, E> {
+                Ok(Res3([v; 3]))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Res3, E> {
+                Ok(Res3([v.min(i64::MAX as u64) as i64; 3]))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Res3, A::Error> {
+                let mut out = [0i64; 3];
+                let mut n = 0usize;
+                while let Some(v) = seq.next_element::<i64>()? {
+                    if n < 3 {
+                        out[n] = v;
+                    }
+                    n += 1;
+                }
+                if n != 3 {
+                    return Err(de::Error::invalid_length(n, &"[nx, ny, nz]: exactly 3 integers"));
+                }
+                Ok(Res3(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 #[derive(Debug, Deserialize)]
