@@ -1,4 +1,5 @@
-//! The `beamlight` command line: `render`, `compare`, `info`, `merge`.
+//! The `beamlight` command line: `render`, `compare`, `info`, `merge`, `export-mitsuba`.
+pub mod mitsuba;
 mod runs;
 
 use anyhow::{Context, Result, bail};
@@ -39,6 +40,9 @@ enum Command {
     Compare { a: PathBuf, b: PathBuf },
     /// Describe a scene: geometry, materials, media, emitters, backend.
     Info { scene: PathBuf },
+    /// Write the scene for Mitsuba 3 (XML, PLY meshes and .vol grids beside it), saying what
+    /// could not be exported exactly.
+    ExportMitsuba { scene: PathBuf, output: PathBuf },
     /// Merge the accumulators of adjacent pass ranges (`render --passes A..B`) into one image.
     Merge {
         /// Accumulator files (`.accum`), in any order.
@@ -170,6 +174,7 @@ pub fn main() -> ExitCode {
         Command::Render(args) => render(*args, start),
         Command::Compare { a, b } => compare_cmd(&a, &b),
         Command::Info { scene } => info(&scene),
+        Command::ExportMitsuba { scene, output } => export_mitsuba(&scene, &output),
         Command::Merge {
             parts,
             output,
@@ -667,6 +672,29 @@ fn print_stdout(text: &str) -> Result<()> {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e).context("cannot write to standard output"),
         _ => Ok(()),
     }
+}
+
+fn export_mitsuba(scene_path: &Path, output: &Path) -> Result<()> {
+    check_output_path(output, "xml")?;
+    let scene = load_scene(scene_path)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let ts = TraceScene::new(scene);
+    let report = mitsuba::export(&ts.scene, ts.camera_medium, output)?;
+    eprintln!(
+        "wrote {}: {} shapes ({} triangles), {} area and {} punctual emitters, {} media",
+        output.display(),
+        report.shapes,
+        report.triangles,
+        report.area_emitters,
+        report.punctual_emitters,
+        report.media
+    );
+    for w in &report.not_exported {
+        eprintln!("not exported exactly: {w}");
+    }
+    Ok(())
 }
 
 fn compare_cmd(a: &Path, b: &Path) -> Result<()> {
