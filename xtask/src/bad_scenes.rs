@@ -44,6 +44,10 @@ pub fn files() -> Vec<(String, Vec<u8>)> {
     let glb = base().to_glb_bytes();
     out.push(("truncated.glb", glb[..glb.len() * 3 / 5].to_vec()));
 
+    // The OpenVDB test volume cut to 3/5 of its length (vdb_truncated.toml).
+    let vdb = include_bytes!("../../assets/volumes/blob.vdb");
+    out.push(("truncated.vdb", vdb[..vdb.len() * 3 / 5].to_vec()));
+
     // Accessor 0 (the cube's positions) claims 100 vertices; its buffer view holds 8.
     out.push((
         "short_buffer.gltf",

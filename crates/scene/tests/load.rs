@@ -590,6 +590,38 @@ diffuse = 0.25
     }
 }
 
+/// Procedural and OpenVDB densities load into density grids placed where the sidecar says.
+#[test]
+fn perlin_and_vdb_densities_load() {
+    let dir = tempfile::tempdir().unwrap();
+    media_scene(dir.path());
+    let vdb = workspace().join("assets/volumes/blob.vdb");
+    std::fs::copy(&vdb, dir.path().join("blob.vdb")).unwrap();
+    let p = write(
+        dir.path(),
+        "ok.toml",
+        "gltf = \"media.gltf\"\n[[media]]\nname = \"a\"\nregion = \"global\"\nsigma_s = 1\n\
+         density = { perlin = { scale = 3, octaves = 2, height_falloff = 2, seed = 7 }, resolution = [16, 8, 4], bounds = [[0, 0, 0], [2, 1, 1]] }\n\
+         [[media]]\nname = \"b\"\nregion = \"Tank\"\nsigma_s = 1\ndensity = { grid = \"blob.vdb\" }\n",
+    );
+    let scene = load_scene(&p).unwrap();
+    let a = scene.media[0].density.as_ref().unwrap();
+    assert_eq!(a.res, glam::UVec3::new(16, 8, 4));
+    assert_eq!((a.lo, a.hi), (glam::Vec3::ZERO, glam::Vec3::new(2.0, 1.0, 1.0)));
+    let params = beamlight_scene::noise::PerlinDensity {
+        scale: 3.0,
+        octaves: 2,
+        height_falloff: 2.0,
+        seed: 7,
+        ..Default::default()
+    };
+    assert_eq!(a.values, params.bake_values(a.res));
+    let b = scene.media[1].density.as_ref().unwrap();
+    assert_eq!(b.res, glam::UVec3::new(32, 14, 14));
+    assert!((b.lo - glam::Vec3::new(-0.55, -0.175, -0.74)).abs().max_element() < 1e-6);
+    assert!((b.density(glam::Vec3::new(0.3, 0.15, -0.3)) - 1.2239).abs() < 1e-4);
+}
+
 #[test]
 fn media_errors() {
     let dir = tempfile::tempdir().unwrap();
@@ -619,7 +651,51 @@ fn media_errors() {
         ),
         (
             "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = 3 }",
-            "unknown field `perlin`",
+            "invalid type: integer `3`",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = { octaves = 17 } }",
+            "line 6, column 34: [[media]] 'a': density.perlin.octaves = 17 must be between 1 and 16",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = { scale = -1 } }",
+            "density.perlin.scale = -1 must be",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = { gain = nan } }",
+            "density.perlin.gain = NaN must be",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = { seed = -1 } }",
+            "density.perlin.seed = -1 must be between 0 and 4294967295",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = { wiggle = 1 } }",
+            "unknown field `wiggle`",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = {}, resolution = 0 }",
+            "density resolution [0, 0, 0] must be 1 to 4096 per axis",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = {}, resolution = [512, 512, 512] }",
+            "at most 16777216 voxels",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = {}, resolution = [8, 8] }",
+            "exactly 3 integers",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { perlin = {}, grid = \"x.bgrid\" }",
+            "both 'grid' and 'perlin'",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { bounds = [[0, 0, 0], [1, 1, 1]] }",
+            "density needs 'grid",
+        ),
+        (
+            "name = \"a\"\nregion = \"global\"\nsigma_s = 1\ndensity = { grid = \"x.bgrid\", name = \"density\" }",
+            "'x.bgrid' is not one",
         ),
         ("region = \"global\"\nsigma_s = 1", "missing field `name`"),
     ] {
@@ -758,12 +834,29 @@ const BAD_SCENES: &[(&str, &str)] = &[
     ("absurd_resolution.toml", "absurd resolution"),
     ("missing_grid.toml", "no_such_grid.bgrid"),
     ("bad_grid.toml", "not_a_grid.bgrid: not a beamlight density grid"),
+    ("vdb_missing_file.toml", "no_such_volume.vdb"),
+    ("vdb_truncated.toml", "truncated.vdb: corrupt or truncated OpenVDB file"),
+    (
+        "vdb_unknown_grid.toml",
+        "no grid named 'smoke' (grids: 'density', 'temperature', 'velocity')",
+    ),
+    ("vdb_not_float.toml", "a density must be a float grid"),
+    (
+        "perlin_bad_octaves.toml",
+        "line 8, column 47: [[media]] 'smoke': density.perlin.octaves = 0 must be between 1 and 16",
+    ),
     ("phong_energy.toml", "not energy conserving"),
     ("two_global.toml", "at most one medium may be global"),
 ];
 
 /// Files in the corpus directory that are not cases themselves.
-const HELPERS: &[&str] = &["README.md", "_valid_box.gltf", "truncated_bin.bin", "not_a_grid.bgrid"];
+const HELPERS: &[&str] = &[
+    "README.md",
+    "_valid_box.gltf",
+    "truncated_bin.bin",
+    "not_a_grid.bgrid",
+    "truncated.vdb",
+];
 
 #[test]
 fn bad_scenes_fail_with_clear_messages() {
