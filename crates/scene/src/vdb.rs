@@ -96,7 +96,11 @@ pub fn read_vdb(bytes: &[u8], name: &str) -> Result<VdbDensity, String> {
         Err(p) => return Err(broken(format!("header: {}", panic_text(&*p)))),
     };
     // A file cut short after the wanted grid still parses; its index says where grids end.
-    if let Some(d) = reader.grid_descriptors.values().find(|d| d.end_pos > bytes.len() as u64) {
+    if let Some(d) = reader
+        .grid_descriptors
+        .values()
+        .find(|d| d.end_pos > bytes.len() as u64)
+    {
         return Err(format!(
             "truncated OpenVDB file: grid '{}' ends at byte {}, the file has {} bytes",
             d.name,
@@ -119,7 +123,10 @@ pub fn read_vdb(bytes: &[u8], name: &str) -> Result<VdbDensity, String> {
     };
     let ty = desc.grid_type.clone();
     if !ty.starts_with("Tree_float_") {
-        let value = ty.strip_prefix("Tree_").and_then(|t| t.split('_').next()).unwrap_or(&ty);
+        let value = ty
+            .strip_prefix("Tree_")
+            .and_then(|t| t.split('_').next())
+            .unwrap_or(&ty);
         return Err(format!(
             "grid '{name}' holds {value} values ({ty}); a density must be a float grid"
         ));
@@ -255,8 +262,18 @@ mod tests {
         // World placement: OpenVDB's indexToWorld((1,5,0)) = (0.3, 0.15, -0.3) and
         // ((20,3,4)) = (2.2, 0.05, 0.02); the dense grid reproduces the voxel values there.
         let (lo, hi) = v.world_box();
-        assert!((lo - DVec3::new(0.2 - 0.75, -0.1 - 0.075, -0.3 - 0.44)).abs().max_element() < 1e-9);
-        assert!((hi - DVec3::new(0.2 + 2.45, -0.1 + 0.625, -0.3 + 0.68)).abs().max_element() < 1e-9);
+        assert!(
+            (lo - DVec3::new(0.2 - 0.75, -0.1 - 0.075, -0.3 - 0.44))
+                .abs()
+                .max_element()
+                < 1e-9
+        );
+        assert!(
+            (hi - DVec3::new(0.2 + 2.45, -0.1 + 0.625, -0.3 + 0.68))
+                .abs()
+                .max_element()
+                < 1e-9
+        );
         let g = DensityGrid::new(v.res, lo.as_vec3(), hi.as_vec3(), v.values.clone());
         let w = |p: [f64; 3]| DVec3::from(p).as_vec3();
         assert!((g.density(w([0.3, 0.15, -0.3])) - 1.223_9).abs() < 1e-4);
@@ -283,7 +300,11 @@ mod tests {
         let e = read_vdb(&bytes, "velocity").unwrap_err();
         assert!(e.contains("vec3s") && e.contains("float grid"), "{e}");
         assert_eq!(read_vdb(&bytes, "temperature").unwrap().active_voxels, 1);
-        assert!(read_vdb(b"hello world", "density").unwrap_err().contains("not an OpenVDB file"));
+        assert!(
+            read_vdb(b"hello world", "density")
+                .unwrap_err()
+                .contains("not an OpenVDB file")
+        );
         // Truncated anywhere: an error, never a panic.
         for k in 1..200 {
             let len = bytes.len() * k / 200;

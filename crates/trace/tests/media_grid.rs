@@ -31,7 +31,9 @@ fn optical_depth(g: &DensityGrid, o: Vec3, d: Vec3, t: f32, steps: u32) -> f64 {
 fn rays(g: &DensityGrid) -> Vec<(Vec3, Vec3, f32)> {
     let mut state = 0x1234_5678u64;
     let mut u = || {
-        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
         ((state >> 40) as f32) / (1u64 << 24) as f32
     };
     let size = g.hi - g.lo;
@@ -62,7 +64,10 @@ impl Z {
     }
     fn check(&self, what: &str) {
         let mean_sq = self.sum_sq / self.n as f64;
-        eprintln!("{what}: {} z-tests, max |z| = {:.2}, mean z² = {mean_sq:.3}", self.n, self.max_abs);
+        eprintln!(
+            "{what}: {} z-tests, max |z| = {:.2}, mean z² = {mean_sq:.3}",
+            self.n, self.max_abs
+        );
         assert!(self.max_abs < 5.0, "{what}: {self:?}");
         assert!((0.7..1.3).contains(&mean_sq), "{what}: mean z² {mean_sq}");
     }
@@ -143,7 +148,10 @@ fn check_medium(label: &str, grid: DensityGrid, sigma_scale: f32) {
             zd.add(counts[k] as f64 / n, p, se.max(0.5 / n));
         }
     }
-    assert!(hit_density > RAYS / 2, "{label}: only {hit_density} rays meet the medium");
+    assert!(
+        hit_density > RAYS / 2,
+        "{label}: only {hit_density} rays meet the medium"
+    );
     zt.check(&format!("{label}: ratio-tracking transmittance"));
     zd.check(&format!("{label}: delta-tracking free-flight distances"));
 }
@@ -154,7 +162,11 @@ fn perlin_grid_tracking_is_unbiased() {
         seed: 7,
         ..Default::default()
     };
-    let grid = p.bake(UVec3::new(32, 24, 28), Vec3::new(-1.0, 0.0, -0.5), Vec3::new(1.0, 1.5, 1.25));
+    let grid = p.bake(
+        UVec3::new(32, 24, 28),
+        Vec3::new(-1.0, 0.0, -0.5),
+        Vec3::new(1.0, 1.5, 1.25),
+    );
     check_medium("perlin", grid, 1.0);
 }
 

@@ -5,8 +5,8 @@ use super::sidecar::{DensityToml, Num, PerlinToml, Rgb3, Sidecar};
 use crate::SceneError;
 use crate::medium::{DensityGrid, Medium, parse_grid};
 use crate::noise::PerlinDensity;
-use crate::vdb::{MAX_DENSE_VOXELS, read_vdb};
 use crate::scene::MediumInterface;
+use crate::vdb::{MAX_DENSE_VOXELS, read_vdb};
 use glam::{DVec3, UVec3, Vec3};
 use gltf::json;
 use std::collections::HashMap;
@@ -265,7 +265,10 @@ fn plan_density(t: &TomlSrc, head: &str, span: Range<usize>, d: &DensityToml) ->
             if let (Some(n), false) = (&d.name, is_vdb) {
                 return Err(t.err_at(
                     n.span(),
-                    format!("{head}: density 'name' selects a grid in a .vdb file; '{}' is not one", g.get_ref()),
+                    format!(
+                        "{head}: density 'name' selects a grid in a .vdb file; '{}' is not one",
+                        g.get_ref()
+                    ),
                 ));
             }
             let bytes = std::fs::read(&file).map_err(|e| {
@@ -278,7 +281,10 @@ fn plan_density(t: &TomlSrc, head: &str, span: Range<usize>, d: &DensityToml) ->
                 let (line, col) = super::sidecar::line_col(&t.text, g.span().start);
                 SceneError::invalid(
                     &file,
-                    format!("{e} (density grid of {head} in {}, line {line}, column {col})", t.src.name()),
+                    format!(
+                        "{e} (density grid of {head} in {}, line {line}, column {col})",
+                        t.src.name()
+                    ),
                 )
             };
             let what = format!("the density grid '{}'", file.display());
@@ -291,7 +297,9 @@ fn plan_density(t: &TomlSrc, head: &str, span: Range<usize>, d: &DensityToml) ->
                 };
                 let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
                 if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
-                    return Err(in_file(format!("grid '{name}' maps to the empty or infinite world box {lo}..{hi}")));
+                    return Err(in_file(format!(
+                        "grid '{name}' maps to the empty or infinite world box {lo}..{hi}"
+                    )));
                 }
                 Ok(GridPlan {
                     what,
@@ -315,16 +323,14 @@ fn plan_density(t: &TomlSrc, head: &str, span: Range<usize>, d: &DensityToml) ->
 /// Checks the `perlin = {…}` keys; missing ones take [`PerlinDensity::default`]'s values.
 fn perlin_params(t: &TomlSrc, head: &str, p: &PerlinToml) -> Result<PerlinDensity, SceneError> {
     let def = PerlinDensity::default();
-    let num = |key: &str, v: &Option<toml::Spanned<Num>>, default: f32, ok: &dyn Fn(f64) -> bool, rule: &str| {
-        match v {
-            None => Ok(default),
-            Some(v) => {
-                let x = v.get_ref().0;
-                if x.is_finite() && ok(x) && (x as f32).is_finite() {
-                    Ok(x as f32)
-                } else {
-                    Err(t.err_at(v.span(), format!("{head}: density.perlin.{key} = {x} must be {rule}")))
-                }
+    let num = |key: &str, v: &Option<toml::Spanned<Num>>, default: f32, ok: &dyn Fn(f64) -> bool, rule: &str| match v {
+        None => Ok(default),
+        Some(v) => {
+            let x = v.get_ref().0;
+            if x.is_finite() && ok(x) && (x as f32).is_finite() {
+                Ok(x as f32)
+            } else {
+                Err(t.err_at(v.span(), format!("{head}: density.perlin.{key} = {x} must be {rule}")))
             }
         }
     };
@@ -354,10 +360,28 @@ fn perlin_params(t: &TomlSrc, head: &str, p: &PerlinToml) -> Result<PerlinDensit
         }
     };
     Ok(PerlinDensity {
-        scale: num("scale", &p.scale, def.scale, &|x| x > 0.0 && x <= 1e4, "finite, > 0 and <= 10000")?,
+        scale: num(
+            "scale",
+            &p.scale,
+            def.scale,
+            &|x| x > 0.0 && x <= 1e4,
+            "finite, > 0 and <= 10000",
+        )?,
         octaves,
-        gain: num("gain", &p.gain, def.gain, &|x| (0.0..=4.0).contains(&x), "between 0 and 4")?,
-        lacunarity: num("lacunarity", &p.lacunarity, def.lacunarity, &|x| x > 0.0 && x <= 16.0, "> 0 and <= 16")?,
+        gain: num(
+            "gain",
+            &p.gain,
+            def.gain,
+            &|x| (0.0..=4.0).contains(&x),
+            "between 0 and 4",
+        )?,
+        lacunarity: num(
+            "lacunarity",
+            &p.lacunarity,
+            def.lacunarity,
+            &|x| x > 0.0 && x <= 16.0,
+            "> 0 and <= 16",
+        )?,
         height_falloff: num(
             "height_falloff",
             &p.height_falloff,
@@ -366,7 +390,13 @@ fn perlin_params(t: &TomlSrc, head: &str, p: &PerlinToml) -> Result<PerlinDensit
             "finite, between -50 and 50",
         )?,
         bias: num("bias", &p.bias, def.bias, &|x| x.abs() <= 1e6, "finite (|bias| <= 1e6)")?,
-        amplitude: num("amplitude", &p.amplitude, def.amplitude, &|x| x.abs() <= 1e6, "finite (|amplitude| <= 1e6)")?,
+        amplitude: num(
+            "amplitude",
+            &p.amplitude,
+            def.amplitude,
+            &|x| x.abs() <= 1e6,
+            "finite (|amplitude| <= 1e6)",
+        )?,
         seed,
     })
 }

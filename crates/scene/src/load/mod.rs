@@ -23,7 +23,10 @@
 //! sigma_s = [0.3, 0.3, 0.3]      # 1/scene unit, finite, >= 0 (a single number means grey)
 //! sigma_a = [0.02, 0.02, 0.02]   # default 0
 //! g = 0.0                        # Henyey–Greenstein, -1 < g < 1, default 0
-//! density = { grid = "smoke.bgrid", bounds = [[-1, 0, -1], [1, 2, 1]] }   # optional
+//! density = { grid = "smoke.bgrid", bounds = [[-1, 0, -1], [1, 2, 1]] }   # optional, or
+//! # density = { grid = "smoke.vdb", name = "density" }                    # OpenVDB, or
+//! # density = { perlin = { scale = 4.0, octaves = 4, height_falloff = 1.5, seed = 7 },
+//! #             resolution = 64, bounds = [[-1, 0, -1], [1, 2, 1]] }    # procedural
 //!
 //! [materials.Statue]             # override by glTF material name
 //! kind = "phong"                 # lambert | phong | mirror | glass
@@ -77,6 +80,24 @@
 //! * `density = { grid = "file.bgrid", bounds = [[x0,y0,z0],[x1,y1,z1]] }` makes the medium
 //!   heterogeneous (format: [`crate::medium::parse_grid`]); `bounds` defaults to the bounding
 //!   box of the region mesh, or of all triangles for a global medium.
+//! * `density = { grid = "file.vdb", name = "density" }`: an OpenVDB float grid (`name`
+//!   defaults to "density"; an unknown name is an error listing the grids in the file; a
+//!   non-float grid, a corrupt or truncated file are errors naming the file). Its active
+//!   voxels are copied voxel for voxel into a dense grid (at most 2²⁴ voxels) with one voxel
+//!   of background (0) around them, placed in the world by the grid's own transform (voxel
+//!   size and translation; rotating/affine maps are rejected) — see [`crate::vdb`]. An
+//!   explicit `bounds` instead places the outer faces of the active voxels' index box there.
+//! * `density = { perlin = { … }, resolution = 64, bounds = … }`: a procedural density baked
+//!   into a grid of `resolution` voxels (an integer or `[nx, ny, nz]`, 1..=4096 per axis, at
+//!   most 2²⁴ in all; default 64), over `bounds` (default as for `grid`). With `u` the
+//!   position normalised to the bounds and `h = u.y`:
+//!   `d = max(0, bias + amplitude·fbm(scale·u)) · exp(−height_falloff·h)` where fbm is the
+//!   weight-normalised sum of `octaves` Perlin octaves (frequency ×`lacunarity`, amplitude
+//!   ×`gain` per octave). Keys and defaults: `scale` 4 (> 0), `octaves` 4 (1..=16), `gain`
+//!   0.5 (0..=4), `lacunarity` 2 (> 0, ≤ 16), `height_falloff` 1.5 (−50..=50), `bias` 0.5,
+//!   `amplitude` 2.5, `seed` 0 (0..=2³²−1); `perlin = {}` is a cloudy medium of mean
+//!   density ≈ 0.5 at the bottom fading to ≈ 0.1 at the top. Exact definitions and
+//!   determinism: [`crate::noise`].
 //!
 //! # glTF
 //! * The default scene (`scene`), else the first scene, else every parentless node (with a
