@@ -26,6 +26,9 @@ pub fn files() -> Vec<(String, Vec<u8>)> {
         ),
         ("assets/scenes/smoke.bgrid".into(), smoke_grid()),
     ]
+    .into_iter()
+    .chain(crate::showcase::files())
+    .collect()
 }
 
 /// Resolution of the smoke density grid (per axis).
