@@ -1,25 +1,26 @@
 //! `cargo xtask …`: project chores that are code, not shell scripts.
 //!
-//! * `assets [--check]`: (re)generate the bundled scenes in `assets/scenes/`, including the
-//!   large ones that are not committed (`cars.glb`); with `--check`, only verify that the
-//!   committed files are exactly what the generator writes.
+//! * `assets [--check]`: (re)generate the bundled scenes in `assets/scenes/`; with `--check`,
+//!   only verify that the committed files are exactly what the generator writes.
 //! * `bad-scenes [--check]`: the same for the generated files of the broken-scene corpus in
 //!   `tests/bad_scenes/`.
 //! * `ci`: make sure Mesa lavapipe is installed (apt-get, when missing), check the generated
-//!   files, write the large uncommitted ones, then run the whole test suite in release mode.
+//!   files, then run the whole test suite in release mode.
 //! * `fuzz [SECONDS]`: coverage-guided fuzzing of scene loading (`fuzz/`, cargo-fuzz with
 //!   libFuzzer), each target for SECONDS (default 60), seeded with the broken-scene corpus;
 //!   installs cargo-fuzz when missing. Crashes land in `fuzz/artifacts/`: make each one a case
 //!   in `tests/bad_scenes/`.
 //! * `stress`: the numerical stress grid (`tests/stress.rs`) at full size (larger images, more
 //!   passes): minutes, not part of CI.
+//! * `bench [OPTIONS]`: run time against error for every method and backend and for Mitsuba 3,
+//!   against cached path-traced references (`xtask/src/bench/`, `docs/benchmarks.md`).
 use anyhow::{Context, Result, bail};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod assets;
 mod bad_scenes;
-mod showcase;
+mod bench;
 
 const USAGE: &str = "usage: cargo xtask <command>
 
@@ -28,7 +29,8 @@ commands:
   bad-scenes [--check]  write the generated broken-scene fixtures to tests/bad_scenes/
   ci                    install lavapipe if missing, check generated files, run all tests
   stress                the numerical stress grid (tests/stress.rs) at full size
-  fuzz [SECONDS]        fuzz the scene loaders (fuzz/), each target for SECONDS (60)";
+  fuzz [SECONDS]        fuzz the scene loaders (fuzz/), each target for SECONDS (60)
+  bench [OPTIONS]       run time against error per scene and method (bench --help)";
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -41,13 +43,15 @@ fn main() -> Result<()> {
         };
         return fuzz(seconds);
     }
+    if args.first().is_some_and(|a| a == "bench") {
+        return bench::main(&root(), &args[1..]);
+    }
     let check = args.iter().skip(1).any(|a| a == "--check");
     if let Some(extra) = args.iter().skip(1).find(|a| *a != "--check") {
         bail!("unknown argument '{extra}'\n\n{USAGE}");
     }
     match args.first().map(String::as_str) {
-        Some("assets") if check => sync(&assets::files(), true),
-        Some("assets") => sync(&assets::files(), false).and_then(|()| sync(&showcase::large_files(), false)),
+        Some("assets") => sync(&assets::files(), check),
         Some("bad-scenes") => sync(&bad_scenes::files(), check),
         Some("ci") => ci(),
         Some("stress") => run_tests(
@@ -145,8 +149,6 @@ fn ci() -> Result<()> {
     }
     sync(&assets::files(), true)?;
     sync(&bad_scenes::files(), true)?;
-    // The large showcase meshes are not committed: make them (or refresh them) for the tests.
-    sync(&showcase::large_files(), false)?;
     let mut tests = test_command()?;
     tests
         .args(["test", "--release", "--workspace", "--no-fail-fast"])
