@@ -1,11 +1,12 @@
 //! `cargo xtask …`: project chores that are code, not shell scripts.
 //!
-//! * `assets [--check]`: (re)generate the bundled scenes in `assets/scenes/`; with `--check`,
-//!   only verify that the committed files are exactly what the generator writes.
+//! * `assets [--check]`: (re)generate the bundled scenes in `assets/scenes/`, including the
+//!   large ones that are not committed (`cars.glb`); with `--check`, only verify that the
+//!   committed files are exactly what the generator writes.
 //! * `bad-scenes [--check]`: the same for the generated files of the broken-scene corpus in
 //!   `tests/bad_scenes/`.
 //! * `ci`: make sure Mesa lavapipe is installed (apt-get, when missing), check the generated
-//!   files, then run the whole test suite in release mode.
+//!   files, write the large uncommitted ones, then run the whole test suite in release mode.
 //! * `fuzz [SECONDS]`: coverage-guided fuzzing of scene loading (`fuzz/`, cargo-fuzz with
 //!   libFuzzer), each target for SECONDS (default 60), seeded with the broken-scene corpus;
 //!   installs cargo-fuzz when missing. Crashes land in `fuzz/artifacts/`: make each one a case
@@ -21,6 +22,7 @@ use std::process::Command;
 mod assets;
 mod bad_scenes;
 mod bench;
+mod showcase;
 
 const USAGE: &str = "usage: cargo xtask <command>
 
@@ -51,7 +53,8 @@ fn main() -> Result<()> {
         bail!("unknown argument '{extra}'\n\n{USAGE}");
     }
     match args.first().map(String::as_str) {
-        Some("assets") => sync(&assets::files(), check),
+        Some("assets") if check => sync(&assets::files(), true),
+        Some("assets") => sync(&assets::files(), false).and_then(|()| sync(&showcase::large_files(), false)),
         Some("bad-scenes") => sync(&bad_scenes::files(), check),
         Some("ci") => ci(),
         Some("stress") => run_tests(
@@ -149,6 +152,8 @@ fn ci() -> Result<()> {
     }
     sync(&assets::files(), true)?;
     sync(&bad_scenes::files(), true)?;
+    // The large showcase meshes are not committed: make them (or refresh them) for the tests.
+    sync(&showcase::large_files(), false)?;
     let mut tests = test_command()?;
     tests
         .args(["test", "--release", "--workspace", "--no-fail-fast"])
