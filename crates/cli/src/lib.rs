@@ -42,7 +42,16 @@ enum Command {
     Info { scene: PathBuf },
     /// Write the scene for Mitsuba 3 (XML, PLY meshes and .vol grids beside it), saying what
     /// could not be exported exactly.
-    ExportMitsuba { scene: PathBuf, output: PathBuf },
+    ExportMitsuba {
+        scene: PathBuf,
+        output: PathBuf,
+        /// Override the scene's image width.
+        #[arg(long)]
+        width: Option<u32>,
+        /// Override the scene's image height.
+        #[arg(long)]
+        height: Option<u32>,
+    },
     /// Merge the accumulators of adjacent pass ranges (`render --passes A..B`) into one image.
     Merge {
         /// Accumulator files (`.accum`), in any order.
@@ -174,7 +183,12 @@ pub fn main() -> ExitCode {
         Command::Render(args) => render(*args, start),
         Command::Compare { a, b } => compare_cmd(&a, &b),
         Command::Info { scene } => info(&scene),
-        Command::ExportMitsuba { scene, output } => export_mitsuba(&scene, &output),
+        Command::ExportMitsuba {
+            scene,
+            output,
+            width,
+            height,
+        } => export_mitsuba(&scene, &output, width, height),
         Command::Merge {
             parts,
             output,
@@ -258,20 +272,34 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         check_output_path(p, "png")?;
     }
 
+    let loading = Instant::now();
     let scene = load_scene(&args.scene)?;
+    let load_time = loading.elapsed();
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     let width = args.width.unwrap_or(scene.render.width);
     let height = args.height.unwrap_or(scene.render.height);
+    let building = Instant::now();
     let ts = TraceScene::new(scene);
+    let bvh_time = building.elapsed();
     if ts.lights.is_empty() {
         eprintln!(
             "warning: {}: the scene has no light sources (no emissive material, no KHR_lights_punctual light): the image will be black",
             args.scene.display()
         );
     }
+    let opening = Instant::now();
     let (gpu, backend) = choose_backend(args.backend, method, &ts)?;
+    let gpu_time = opening.elapsed();
+    if args.stats {
+        eprintln!(
+            "start-up: scene loaded in {:.2} s, CPU BVH and light tables built in {:.2} s, GPU opened and scene uploaded in {:.2} s",
+            load_time.as_secs_f64(),
+            bvh_time.as_secs_f64(),
+            gpu_time.as_secs_f64()
+        );
+    }
     eprintln!(
         "beamlight: {} ({} triangles), {width}x{height}, method {}, backend {backend}",
         args.scene.display(),
@@ -674,9 +702,16 @@ fn print_stdout(text: &str) -> Result<()> {
     }
 }
 
-fn export_mitsuba(scene_path: &Path, output: &Path) -> Result<()> {
+fn export_mitsuba(scene_path: &Path, output: &Path, width: Option<u32>, height: Option<u32>) -> Result<()> {
     check_output_path(output, "xml")?;
-    let scene = load_scene(scene_path)?;
+    let mut scene = load_scene(scene_path)?;
+    for v in [width, height].into_iter().flatten() {
+        if v == 0 || v > 16384 {
+            bail!("image size {v} is out of range (1..=16384)");
+        }
+    }
+    scene.render.width = width.unwrap_or(scene.render.width);
+    scene.render.height = height.unwrap_or(scene.render.height);
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }

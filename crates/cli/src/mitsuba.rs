@@ -304,7 +304,8 @@ pub fn export(scene: &Scene, camera_medium: Option<u32>, xml_path: &Path) -> Res
 
     // Shapes: one per (mesh, material, interface).
     type Key = (u32, u32, Option<(Option<u32>, Option<u32>)>);
-    let mut groups: BTreeMap<Key, Vec<([Vec3; 3], Option<[Vec3; 3]>)>> = BTreeMap::new();
+    type Tri = ([Vec3; 3], Option<[Vec3; 3]>);
+    let mut groups: BTreeMap<Key, Vec<Tri>> = BTreeMap::new();
     for t in &scene.triangles {
         let iface = t.interface.map(|f| (f.inside, f.outside));
         groups.entry((t.mesh, t.material, iface)).or_default().push((t.p, t.n));
@@ -408,6 +409,8 @@ pub fn export(scene: &Scene, camera_medium: Option<u32>, xml_path: &Path) -> Res
         report.punctual_emitters += 1;
     }
     xml.push_str("</scene>\n");
+    let mut seen = std::collections::BTreeSet::new();
+    report.not_exported.retain(|w| seen.insert(w.clone()));
     std::fs::write(xml_path, xml).with_context(|| format!("writing {}", xml_path.display()))?;
     Ok(report)
 }

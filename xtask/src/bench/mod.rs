@@ -291,7 +291,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         let mut series: Vec<SeriesKey> = Vec::new();
         for m in &o.methods {
             for b in &o.backends {
-                if (m == "pt" && b == "gpu") || (b == "gpu" && !gpu) {
+                if b == "gpu" && (m == "pt" || !gpu) {
                     continue;
                 }
                 series.push(SeriesKey {
@@ -679,39 +679,39 @@ fn scene_summary(
         };
         let st = &r.timing.stats;
         let startup = r.timing.wall - r.timing.render;
-        let mut parts: Vec<(String, f64)> = Vec::new();
+        // (label, name, seconds)
+        let mut parts: Vec<(String, String, f64)> = Vec::new();
         let trace = st["trace_seconds"].as_f64().unwrap_or(0.0);
         if k.renderer == "mitsuba" {
-            parts.push((
-                format!("volpath {}", st["variant"].as_str().unwrap_or("")),
-                r.timing.render,
-            ));
+            let v = st["variant"].as_str().unwrap_or("");
+            let t = r.timing.render;
+            parts.push((format!("volpath ({v}) {t:.2}"), "volpath".into(), t));
         } else if k.method == "pt" {
+            let t = st["path_tracing_seconds"].as_f64().unwrap_or(0.0);
             parts.push((
-                "path tracing (all components)".into(),
-                st["path_tracing_seconds"].as_f64().unwrap_or(0.0),
+                format!("path tracing (all components) {t:.2}"),
+                "path tracing".into(),
+                t,
             ));
         } else if let Some(obj) = st["components"].as_object() {
             for c in COMPONENTS {
                 if let Some(v) = obj.get(c) {
-                    let (cpu, gpu) = (
-                        v["cpu_seconds"].as_f64().unwrap_or(0.0),
-                        v["gpu_seconds"].as_f64().unwrap_or(0.0),
-                    );
+                    let secs = |f: &str| v[f].as_f64().unwrap_or(0.0).max(0.0);
+                    let (cpu, gpu) = (secs("cpu_seconds"), secs("gpu_seconds"));
                     if cpu + gpu > 0.0 {
-                        parts.push((format!("{c} {cpu:.2} + {gpu:.2}"), cpu + gpu));
+                        parts.push((format!("{c} {cpu:.2} + {gpu:.2}"), c.to_string(), cpu + gpu));
                     }
                 }
             }
         }
         let mut all = parts.clone();
         if trace > 0.0 {
-            all.push(("tracing".into(), trace));
+            all.push((String::new(), "tracing (camera and light paths)".into(), trace));
         }
         let largest = all
             .iter()
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map_or("-".into(), |(n, _)| n.split(' ').next().unwrap_or("").to_string());
+            .max_by(|a, b| a.2.total_cmp(&b.2))
+            .map_or("-".into(), |(_, n, _)| n.clone());
         let _ = writeln!(
             out,
             "| {} | {:.2} | {startup:.2} | {trace:.2} | {} | {largest} |",

@@ -106,8 +106,9 @@ pub fn svg(title: &str, x_label: &str, series: &[Series], hlines: &[(f64, String
     }
     for (i, se) in series.iter().enumerate() {
         let color = COLORS[i % COLORS.len()];
-        let p: Vec<String> = se
-            .points
+        let mut sorted = se.points.clone();
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let p: Vec<String> = sorted
             .iter()
             .filter(|p| p.0 > 0.0 && p.1 > 0.0)
             .map(|&(x, y)| format!("{:.1},{:.1}", px(x), py(y)))

@@ -1,15 +1,16 @@
 //! Numbers for the summary: time to reach a target error, read off a measured curve.
 
 /// The time at which the error curve `points` (time, relMSE), in order of time, first reaches
-/// `target`, interpolating linearly in log–log between the bracketing measurements (errors of
+/// `target` (points sorted by time first: a render may overrun its budget), interpolating linearly in log–log between the bracketing measurements (errors of
 /// Monte Carlo renders fall as a power of time, a straight line there). `None` when no
 /// measurement reaches the target; the first point's time when it already does.
 pub fn time_to_target(points: &[(f64, f64)], target: f64) -> Option<f64> {
-    let pts: Vec<(f64, f64)> = points
+    let mut pts: Vec<(f64, f64)> = points
         .iter()
         .copied()
         .filter(|p| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite())
         .collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     let first = pts.first()?;
     if first.1 <= target {
         return Some(first.0);
