@@ -68,7 +68,6 @@ def main():
     acc = None
     total_spp = 0
     passes = 0
-    pass_seconds = []  # (spp, seconds) of every pass after the first (which compiles)
 
     def render(spp):
         nonlocal acc, total_spp, passes
@@ -94,26 +93,17 @@ def main():
             left -= k
     else:
         budget = args.time
-        render(1)  # the first pass includes compilation
-        k = 1
-        while True:
-            elapsed = time.perf_counter() - T0
-            if pass_seconds:
-                per_spp = sum(t for _, t in pass_seconds) / sum(s for s, _ in pass_seconds)
-            else:
-                per_spp = None
-            if per_spp is None:
-                k = 1
-            else:
-                # Passes of about a tenth of the budget, the last one cut to what fits.
-                k = max(1, int(0.1 * budget / per_spp))
-                k = min(k, int((budget - elapsed) / per_spp))
-                if k < 1:
-                    break
-            if per_spp is None and elapsed >= budget:
-                break
-            dt = render(k)
-            pass_seconds.append((k, dt))
+        # Mitsuba compiles a kernel per sample count, so passes keep one count: two 1-spp
+        # passes (the first compiles) measure the speed, then every pass has k samples,
+        # about a twentieth of the budget, and none starts that would overrun (estimated
+        # from the latest pass, which after the first k-pass has no compilation in it).
+        render(1)
+        last = None
+        if time.perf_counter() - T0 < budget:
+            last = render(1)
+            k = max(1, int(0.05 * budget / max(last, 1e-6)))
+            while time.perf_counter() - T0 + (last * k if passes == 2 else last) <= budget:
+                last = render(k)
 
     image = acc / total_spp
     mi.Bitmap(image).write(args.output)
