@@ -10,6 +10,7 @@ pub mod many_lights;
 pub mod output;
 pub mod progressive;
 pub mod radius;
+pub mod sheet;
 
 pub use film::{Film, Image};
 pub use progressive::{Budget, Method, Progress, RenderOptions, RenderResult, render, render_from};

@@ -177,7 +177,12 @@ pub fn write_png(path: &Path, image: &Image, exposure: f32) -> Result<(), Output
             buf.push((srgb_encode(p[c] * scale) * 255.0 + 0.5) as u8);
         }
     }
-    let rgb = image::RgbImage::from_raw(image.width, image.height, buf).ok_or_else(|| err(path, "bad image size"))?;
+    write_png_rgb8(path, image.width, image.height, buf)
+}
+
+/// Writes 8-bit RGB rows (already display-encoded) as a PNG, atomically.
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: Vec<u8>) -> Result<(), OutputError> {
+    let rgb = image::RgbImage::from_raw(width, height, rgb).ok_or_else(|| err(path, "bad image size"))?;
     let mut bytes = Cursor::new(Vec::new());
     rgb.write_to(&mut bytes, image::ImageFormat::Png)
         .map_err(|e| err(path, e))?;
