@@ -52,6 +52,22 @@ enum Command {
         #[arg(long)]
         height: Option<u32>,
     },
+    /// A labelled contact sheet (PNG) of every layer of an EXR: the beauty image and each
+    /// transport component, each tonemapped on its own unless --exposure is given (paper Fig. 9).
+    Sheet {
+        input: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Tiles per row.
+        #[arg(long, default_value_t = 4)]
+        columns: u32,
+        /// Each tile's luminance percentile (0–1) that maps to white.
+        #[arg(long, default_value_t = 0.995)]
+        percentile: f32,
+        /// One exposure in stops for every tile instead (keeps brightness comparable).
+        #[arg(long, allow_negative_numbers = true)]
+        exposure: Option<f32>,
+    },
     /// Merge the accumulators of adjacent pass ranges (`render --passes A..B`) into one image.
     Merge {
         /// Accumulator files (`.accum`), in any order.
@@ -189,6 +205,13 @@ pub fn main() -> ExitCode {
             width,
             height,
         } => export_mitsuba(&scene, &output, width, height),
+        Command::Sheet {
+            input,
+            output,
+            columns,
+            percentile,
+            exposure,
+        } => sheet_cmd(&input, &output, columns, percentile, exposure),
         Command::Merge {
             parts,
             output,
@@ -453,6 +476,32 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
 /// Mesa's Vulkan drivers print "error: XDG_RUNTIME_DIR is invalid or not set" on every device
 /// open without that variable (containers, CI), which reads like one of ours: give the process
 /// a private runtime directory when it has none (returned, to be removed at exit).
+fn sheet_cmd(input: &Path, output: &Path, columns: u32, percentile: f32, exposure: Option<f32>) -> Result<()> {
+    use beamlight_render::sheet::{Exposure, contact_sheet};
+    check_output_path(output, "png")?;
+    if !(0.0..=1.0).contains(&percentile) {
+        bail!("--percentile {percentile}: must lie in [0, 1]");
+    }
+    let layers = beamlight_render::output::read_exr_layers(input)?;
+    let tiles: Vec<(&str, &beamlight_render::Image)> = layers
+        .iter()
+        .map(|(name, img)| (if name.is_empty() { "beauty" } else { name.as_str() }, img))
+        .collect();
+    let exposure = match exposure {
+        Some(stops) => Exposure::Shared { stops },
+        None => Exposure::PerTile { percentile },
+    };
+    let (w, h, rgb) = contact_sheet(&tiles, columns, exposure);
+    beamlight_render::output::write_png_rgb8(output, w, h, rgb)?;
+    eprintln!(
+        "wrote {} ({} layers of {})",
+        output.display(),
+        tiles.len(),
+        input.display()
+    );
+    Ok(())
+}
+
 fn quiet_vulkan_loader() -> Option<PathBuf> {
     if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
         return None;
