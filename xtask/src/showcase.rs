@@ -47,9 +47,12 @@ fn vertex_normals(p: &[Vec3], idx: &[u32]) -> Vec<Vec3> {
     n.into_iter().map(|v| v.try_normalize().unwrap_or(Vec3::Y)).collect()
 }
 
-/// An open-front box room `[lo, hi]` closed on all six sides, normals pointing in, one quad per
-/// wall so each can take its own material: (name, positions, indices) per wall.
-fn room_walls(lo: Vec3, hi: Vec3) -> Vec<(&'static str, (Vec<Vec3>, Vec<u32>))> {
+/// An indexed triangle mesh: positions and triangle indices.
+type Mesh = (Vec<Vec3>, Vec<u32>);
+
+/// A box room `[lo, hi]` closed on all six sides, normals pointing in, one quad per wall so
+/// each can take its own material: (name, mesh) per wall.
+fn room_walls(lo: Vec3, hi: Vec3) -> Vec<(&'static str, Mesh)> {
     let d = hi - lo;
     vec![
         (
@@ -80,7 +83,7 @@ fn room_walls(lo: Vec3, hi: Vec3) -> Vec<(&'static str, (Vec<Vec3>, Vec<u32>))> 
 // buddha
 
 /// The bunny scan as stored in `assets/sources/bunny.json`: y up, about 9.7 units tall.
-fn bunny() -> (Vec<Vec3>, Vec<u32>) {
+fn bunny() -> Mesh {
     let text = include_str!("../../assets/sources/bunny.json");
     let json: serde_json::Value = serde_json::from_str(text).expect("bunny.json is JSON");
     let positions = json["positions"]
@@ -192,7 +195,7 @@ fn signed_pow(x: f32, e: f32) -> f32 {
 /// A car-like body: a rounded box (superellipsoid) 4.2 long, 1.8 wide, with a cabin bulging
 /// from its top and fine ripples over the paint, standing with its bottom at y = 0.3.
 /// Made by displacing a UV sphere, so it is closed with outward normals.
-fn car_body(segments: u32, rings: u32) -> (Vec<Vec3>, Vec<u32>) {
+fn car_body(segments: u32, rings: u32) -> Mesh {
     let (sphere, idx) = shapes::uv_sphere(Vec3::ZERO, 1.0, rings, segments);
     let (half_len, half_height, half_width) = (2.1, 0.35, 0.9);
     let e = 0.35;
@@ -231,7 +234,7 @@ fn car_body(segments: u32, rings: u32) -> (Vec<Vec3>, Vec<u32>) {
 }
 
 /// A wheel: a torus around the z axis through `center`.
-fn wheel(center: Vec3, radius: f32, tube: f32) -> (Vec<Vec3>, Vec<u32>) {
+fn wheel(center: Vec3, radius: f32, tube: f32) -> Mesh {
     let (m, n) = (48u32, 16u32);
     let mut p = Vec::with_capacity((m * n) as usize);
     for i in 0..m {

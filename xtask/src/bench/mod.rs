@@ -485,21 +485,16 @@ fn curves(series: &[SeriesKey], budgets: &[f64], rows: &[Row]) -> Vec<(SeriesKey
         .collect()
 }
 
-const COMPONENTS: [&str; 7] = [
-    "direct",
-    "Lsm",
-    "Lmm",
-    "Lms",
-    "Lss",
-    "caustic_surface",
-    "caustic_volume",
-];
+/// The transport components' layer names, in the renderer's order.
+fn component_names() -> impl Iterator<Item = &'static str> {
+    beamlight_render::components::Component::ALL.iter().map(|c| c.name())
+}
 
 fn write_csv(path: &Path, rows: &[Row], reference: &reference::Reference) -> Result<()> {
     let mut s = String::from(
         "renderer,method,backend,budget_s,repeat,seed,wall_s,render_s,startup_s,passes,relmse,rmse,ref_relmse_est",
     );
-    for c in COMPONENTS {
+    for c in component_names() {
         let _ = write!(s, ",relmse_{c},rmse_{c}");
     }
     s.push('\n');
@@ -521,7 +516,7 @@ fn write_csv(path: &Path, rows: &[Row], reference: &reference::Reference) -> Res
             r.rmse,
             reference.est_rel_mse
         );
-        for c in COMPONENTS {
+        for c in component_names() {
             match r.components.iter().find(|x| x.0 == c) {
                 Some((_, rel, rm)) => {
                     let _ = write!(s, ",{rel:.6e},{rm:.6e}");
@@ -551,7 +546,7 @@ fn scene_summary(
     let _ = writeln!(
         out,
         "Scene `{}`. Plot: [{sname}.svg]({sname}.svg); data: [{sname}.csv]({sname}.csv); equal-time images at {:.2} s: [{sname}_sheet.png]({sname}_sheet.png) (tiles left to right, top to bottom: reference, {}; all tonemapped alike).\n",
-        scene.display(),
+        scene.strip_prefix(crate::root()).unwrap_or(scene).display(),
         budgets[budgets.len() - 1],
         series.iter().map(|k| k.label()).collect::<Vec<_>>().join(", ")
     );
@@ -694,7 +689,7 @@ fn scene_summary(
                 t,
             ));
         } else if let Some(obj) = st["components"].as_object() {
-            for c in COMPONENTS {
+            for c in component_names() {
                 if let Some(v) = obj.get(c) {
                     let secs = |f: &str| v[f].as_f64().unwrap_or(0.0).max(0.0);
                     let (cpu, gpu) = (secs("cpu_seconds"), secs("gpu_seconds"));
@@ -730,18 +725,18 @@ fn scene_summary(
         "\nPer-component relMSE at the {last:.2} s budget against the component-split reference (many-light methods; blank: the component is not in the scene):\n"
     );
     let _ = write!(out, "| series |");
-    for c in COMPONENTS {
+    for c in component_names() {
         let _ = write!(out, " {c} |");
     }
     out.push('\n');
-    out.push_str(&"|---".repeat(COMPONENTS.len() + 1));
+    out.push_str(&"|---".repeat(beamlight_render::components::Component::ALL.len() + 1));
     out.push_str("|\n");
     for k in series.iter().filter(|k| k.renderer == "beamlight" && k.method != "pt") {
         let Some(r) = rows.iter().find(|r| &r.key == k && r.budget == last && r.repeat == 0) else {
             continue;
         };
         let _ = write!(out, "| {} |", k.label());
-        for c in COMPONENTS {
+        for c in component_names() {
             let needed = r.timing.stats["components"][c]["needed"].as_bool().unwrap_or(true);
             match r.components.iter().find(|x| x.0 == c) {
                 Some((_, rel, _)) if needed => {
@@ -794,7 +789,7 @@ fn convention_check(
         spp += t.passes;
         halves.push(metrics::read_beauty_and_layers(&img)?.0);
     }
-    let m = Image::blend(&halves[0], 0.5, &halves[1], 0.5)?;
+    let m = metrics::blend(&halves[0], 0.5, &halves[1], 0.5)?;
     let m_est = metrics::rel_mse(&halves[0], &halves[1])? / 4.0;
     let rel = metrics::rel_mse(&m, &reference.beauty)?;
     let (mm, rm) = (m.mean(), reference.beauty.mean());

@@ -179,7 +179,7 @@ pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSetti
     let spp = |i: usize| meta["halves"][i]["spp"].as_u64().unwrap_or(1);
     let (na, nb) = (spp(0), spp(1));
     let (wa, wb) = (na as f64 / (na + nb) as f64, nb as f64 / (na + nb) as f64);
-    let beauty = Image::blend(&a, wa, &b, wb)?;
+    let beauty = metrics::blend(&a, wa, &b, wb)?;
     // relMSE(A, B) with B's denominators; the merged reference's error is about a quarter of
     // the halves' when they have equal sample counts (in general wa²·eA + wb²·eB ≈ that).
     let est = |x: &Image, y: &Image| -> Result<(f64, f64)> {
@@ -194,7 +194,7 @@ pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSetti
             bail!("reference halves have different layers ({name} vs {name_b})");
         }
         layer_est.push((name.clone(), est(x, y)?.1));
-        layers.push((name.clone(), Image::blend(x, wa, y, wb)?));
+        layers.push((name.clone(), metrics::blend(x, wa, y, wb)?));
     }
     metrics::write_exr(&dir.join("reference.exr"), &beauty)?;
     let seconds = (0..2)
