@@ -52,10 +52,15 @@ enum Command {
         #[arg(long)]
         height: Option<u32>,
     },
-    /// A labelled contact sheet (PNG) of every layer of an EXR: the beauty image and each
-    /// transport component, each tonemapped on its own unless --exposure is given (paper Fig. 9).
+    /// A labelled contact sheet (PNG). With one EXR: every layer of it, the beauty image and each
+    /// transport component (paper Fig. 9). With several: the beauty image of each, side by side
+    /// (equal-time comparisons). Each tile is tonemapped on its own unless --exposure is given.
     Sheet {
-        input: PathBuf,
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Tile labels for several inputs, comma-separated (default: the file names).
+        #[arg(long, value_delimiter = ',')]
+        labels: Vec<String>,
         #[arg(short, long)]
         output: PathBuf,
         /// Tiles per row.
@@ -206,12 +211,13 @@ pub fn main() -> ExitCode {
             height,
         } => export_mitsuba(&scene, &output, width, height),
         Command::Sheet {
-            input,
+            inputs,
+            labels,
             output,
             columns,
             percentile,
             exposure,
-        } => sheet_cmd(&input, &output, columns, percentile, exposure),
+        } => sheet_cmd(&inputs, &labels, &output, columns, percentile, exposure),
         Command::Merge {
             parts,
             output,
@@ -476,29 +482,52 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
 /// Mesa's Vulkan drivers print "error: XDG_RUNTIME_DIR is invalid or not set" on every device
 /// open without that variable (containers, CI), which reads like one of ours: give the process
 /// a private runtime directory when it has none (returned, to be removed at exit).
-fn sheet_cmd(input: &Path, output: &Path, columns: u32, percentile: f32, exposure: Option<f32>) -> Result<()> {
+fn sheet_cmd(
+    inputs: &[PathBuf],
+    labels: &[String],
+    output: &Path,
+    columns: u32,
+    percentile: f32,
+    exposure: Option<f32>,
+) -> Result<()> {
     use beamlight_render::sheet::{Exposure, contact_sheet};
     check_output_path(output, "png")?;
     if !(0.0..=1.0).contains(&percentile) {
         bail!("--percentile {percentile}: must lie in [0, 1]");
     }
-    let layers = beamlight_render::output::read_exr_layers(input)?;
-    let tiles: Vec<(&str, &beamlight_render::Image)> = layers
-        .iter()
-        .map(|(name, img)| (if name.is_empty() { "beauty" } else { name.as_str() }, img))
-        .collect();
+    if !labels.is_empty() && labels.len() != inputs.len() {
+        bail!(
+            "--labels names {} tiles but {} images were given",
+            labels.len(),
+            inputs.len()
+        );
+    }
+    let tiles: Vec<(String, beamlight_render::Image)> = if let [input] = inputs {
+        beamlight_render::output::read_exr_layers(input)?
+            .into_iter()
+            .map(|(name, img)| (if name.is_empty() { "beauty".into() } else { name }, img))
+            .collect()
+    } else {
+        let mut tiles = Vec::new();
+        for (k, input) in inputs.iter().enumerate() {
+            let (img, _) = beamlight_render::output::read_exr(input)?;
+            let label = labels.get(k).cloned().unwrap_or_else(|| {
+                input
+                    .file_stem()
+                    .map_or_else(String::new, |s| s.to_string_lossy().into_owned())
+            });
+            tiles.push((label, img));
+        }
+        tiles
+    };
     let exposure = match exposure {
         Some(stops) => Exposure::Shared { stops },
         None => Exposure::PerTile { percentile },
     };
-    let (w, h, rgb) = contact_sheet(&tiles, columns, exposure);
+    let refs: Vec<(&str, &beamlight_render::Image)> = tiles.iter().map(|(l, i)| (l.as_str(), i)).collect();
+    let (w, h, rgb) = contact_sheet(&refs, columns, exposure);
     beamlight_render::output::write_png_rgb8(output, w, h, rgb)?;
-    eprintln!(
-        "wrote {} ({} layers of {})",
-        output.display(),
-        tiles.len(),
-        input.display()
-    );
+    eprintln!("wrote {} ({} tiles)", output.display(), tiles.len());
     Ok(())
 }
 

@@ -15,7 +15,8 @@ pub enum Exposure {
 
 /// Pixels between tiles and around the sheet.
 const GAP: u32 = 4;
-/// The label font's glyphs are 8×8, drawn at this scale.
+/// The label font's glyphs are 8×8, drawn at this scale, or at 1 when a label would not fit
+/// its tile at this scale.
 const FONT_SCALE: u32 = 2;
 
 /// Lays `tiles` out in rows of `columns`, each tonemapped per `exposure` and labelled with its
@@ -24,8 +25,14 @@ const FONT_SCALE: u32 = 2;
 pub fn contact_sheet(tiles: &[(&str, &Image)], columns: u32, exposure: Exposure) -> (u32, u32, Vec<u8>) {
     let columns = columns.clamp(1, tiles.len().max(1) as u32);
     let rows = (tiles.len() as u32).div_ceil(columns);
-    let label = 8 * FONT_SCALE + 2 * GAP;
     let cell_w = tiles.iter().map(|t| t.1.width).max().unwrap_or(0);
+    let longest = tiles.iter().map(|t| t.0.chars().count() as u32).max().unwrap_or(0);
+    let font = if longest * 8 * FONT_SCALE <= cell_w {
+        FONT_SCALE
+    } else {
+        1
+    };
+    let label = 8 * font + 2 * GAP;
     let cell_h = tiles.iter().map(|t| t.1.height).max().unwrap_or(0) + label;
     let width = GAP + columns * (cell_w + GAP);
     let height = GAP + rows * (cell_h + GAP);
@@ -35,7 +42,7 @@ pub fn contact_sheet(tiles: &[(&str, &Image)], columns: u32, exposure: Exposure)
             GAP + (k as u32 % columns) * (cell_w + GAP),
             GAP + (k as u32 / columns) * (cell_h + GAP),
         );
-        draw_text(&mut rgb, width, x0, y0 + GAP, name);
+        draw_text(&mut rgb, width, (x0, x0 + cell_w), y0 + GAP, font, name);
         let scale = match exposure {
             Exposure::PerTile { percentile } => 1.0 / luminance_percentile(img, percentile).max(1e-12),
             Exposure::Shared { stops } => stops.exp2(),
@@ -72,8 +79,9 @@ fn luminance(p: &Rgb) -> f32 {
     0.2126 * p.x + 0.7152 * p.y + 0.0722 * p.z
 }
 
-/// Draws `text` in light grey with its top-left corner at (`x`, `y`), clipped to the row width.
-fn draw_text(rgb: &mut [u8], width: u32, x: u32, y: u32, text: &str) {
+/// Draws `text` in light grey at `scale` with its top-left corner at (`x`, `y`), clipped to
+/// the columns `x..x_end` (its tile).
+fn draw_text(rgb: &mut [u8], width: u32, (x, x_end): (u32, u32), y: u32, scale: u32, text: &str) {
     use font8x8::UnicodeFonts as _;
     let height = rgb.len() as u32 / (3 * width);
     for (i, ch) in text.chars().enumerate() {
@@ -83,11 +91,11 @@ fn draw_text(rgb: &mut [u8], width: u32, x: u32, y: u32, text: &str) {
                 if bits >> gx & 1 == 0 {
                     continue;
                 }
-                for sy in 0..FONT_SCALE {
-                    for sx in 0..FONT_SCALE {
-                        let px = x + (i as u32 * 8 + gx) * FONT_SCALE + sx;
-                        let py = y + gy as u32 * FONT_SCALE + sy;
-                        if px < width && py < height {
+                for sy in 0..scale {
+                    for sx in 0..scale {
+                        let px = x + (i as u32 * 8 + gx) * scale + sx;
+                        let py = y + gy as u32 * scale + sy;
+                        if px < x_end.min(width) && py < height {
                             let at = ((py * width + px) * 3) as usize;
                             rgb[at..at + 3].copy_from_slice(&[220, 220, 220]);
                         }
@@ -114,7 +122,8 @@ mod tests {
     fn tiles_are_laid_out_and_tonemapped_each_on_its_own() {
         let (a, b) = (flat(10, 6, 0.001), flat(8, 8, 50.0));
         let (w, h, rgb) = contact_sheet(&[("a", &a), ("b", &b)], 2, Exposure::PerTile { percentile: 0.99 });
-        let label = 8 * FONT_SCALE + 2 * GAP;
+        // A 16-pixel glyph does not fit the 10-pixel cells: labels at scale 1.
+        let label = 8 + 2 * GAP;
         assert_eq!((w, h), (GAP + 2 * (10 + GAP), GAP + 8 + label + GAP));
         assert_eq!(rgb.len(), (w * h * 3) as usize);
         // Both flat tiles map to white under their own exposure, however different they are.
@@ -124,6 +133,21 @@ mod tests {
         // With a shared exposure the dim tile stays dark.
         let (_, _, rgb) = contact_sheet(&[("a", &a), ("b", &b)], 2, Exposure::Shared { stops: 0.0 });
         assert!(rgb[((((GAP + label) * w) + GAP) * 3) as usize] < 20);
+    }
+
+    #[test]
+    fn long_labels_shrink_and_stay_in_their_tile() {
+        let a = flat(40, 4, 0.0);
+        let tiles = [("a label far wider than its tile", &a), ("b", &a)];
+        let (w, h, rgb) = contact_sheet(&tiles, 2, Exposure::Shared { stops: 0.0 });
+        // Scale 1: the label bar is 8 + 2·GAP high.
+        assert_eq!(h, GAP + 4 + 8 + 2 * GAP + GAP);
+        // Nothing of the first label spills into the gap before the second tile.
+        for y in 0..h {
+            for x in GAP + 40..GAP + 40 + GAP {
+                assert_eq!(rgb[((y * w + x) * 3) as usize], 24, "pixel ({x}, {y})");
+            }
+        }
     }
 
     #[test]
