@@ -173,11 +173,16 @@ pub fn render_from(
     loop {
         let start_another = match opts.budget {
             Budget::Passes(n) => started_passes < n,
-            Budget::Time(_) if started_passes == 0 => true,
+            // Until a pass has finished there is no estimate of a pass's time: the first pass
+            // always runs, and no second one starts while it is in flight.
+            Budget::Time(_) if passes == 0 => started_passes == 0,
             Budget::Time(limit) => {
-                // Start a pass only if it (estimated as the mean so far) fits in the budget.
-                let mean = started.elapsed() / started_passes as u32;
-                opts.start.elapsed() + mean <= limit
+                // Start a pass only if it is expected to finish within the budget: passes
+                // finish one period apart (the mean so far), and a new one finishes after the
+                // one in flight.
+                let period = started.elapsed() / passes as u32;
+                let queued = 1 + in_flight.is_some() as u32;
+                opts.start.elapsed() + period * queued <= limit
             }
         };
         let pass = (opts.first_pass + started_passes) as u32;
@@ -208,7 +213,7 @@ pub fn render_from(
             };
             let Some(done) = std::mem::replace(&mut in_flight, next) else {
                 if in_flight.is_some() {
-                    continue; // the first pass: nothing to finish yet
+                    continue; // nothing was in flight: nothing to finish yet
                 }
                 break;
             };
