@@ -105,7 +105,8 @@ fn bunny() -> Mesh {
 }
 
 /// Room x ∈ [−2, 2], y ∈ [0, 3], z ∈ [−2, 3] with an orange left wall, a pedestal in the
-/// middle, the bunny on it, and a spot light in the front right corner aimed at the left wall.
+/// middle, the bunny on it, and a spot light in the back right corner aimed at the front of the
+/// left wall, out of view.
 fn buddha_glb() -> Vec<u8> {
     let mut b = GltfBuilder::new();
     let white = b.material(MaterialDesc::lambert("White", [0.7, 0.7, 0.7]));
