@@ -153,7 +153,7 @@ fn cars_renders_everywhere() {
     renders_everywhere("cars", (16, 9));
 }
 
-// Tolerances: about twice what was measured (`cargo test --release --test showcase --
+// Tolerances: 2–7 times what was measured (`cargo test --release --test showcase --
 // --nocapture` prints both numbers): tile relMSE 0.0106 / 0.0014 / 0.0503 and mean differences
 // 5.8 % / 0.8 % / 4.2 % for buddha / smokyroom / cars. `vbl`'s own blur bias after 16 passes
 // with the default radius is part of buddha's: at 24×24 its mean (red) was 0.479 after 16
