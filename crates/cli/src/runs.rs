@@ -39,29 +39,13 @@ impl std::str::FromStr for PassRange {
     }
 }
 
-/// FNV-1a, enough to tell scenes apart (not a security hash).
-struct Fnv(u64);
-
-impl Fnv {
-    fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.0 = (self.0 ^ *b as u64).wrapping_mul(0x100_0000_01b3);
-        }
-    }
-    fn floats(&mut self, v: &[f32]) {
-        for x in v {
-            self.write(&x.to_bits().to_le_bytes());
-        }
-    }
-}
-
 /// What decides a pass, as one line: the scene's content (geometry, materials, media with
 /// their grids, lights, camera), the method, the image size, the seed and every estimator
 /// setting. Accumulators continue or combine only with the same fingerprint.
 pub fn fingerprint(scene: &Scene, opts: &RenderOptions) -> String {
-    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    let mut h = beamlight_render::accum::Fnv1a::default();
     for t in &scene.triangles {
-        h.floats(&t.p.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
+        h.write_f32s(&t.p.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>());
         h.write(&t.material.to_le_bytes());
         h.write(format!("{:?}{:?}{:?}", t.n, t.uv, t.interface).as_bytes());
     }
@@ -70,7 +54,7 @@ pub fn fingerprint(scene: &Scene, opts: &RenderOptions) -> String {
         h.write(format!("{} {:?} {:?} {}", m.name, m.sigma_s, m.sigma_a, m.g).as_bytes());
         if let Some(g) = &m.density {
             h.write(format!("{:?} {:?} {:?}", g.res, g.lo, g.hi).as_bytes());
-            h.floats(&g.values);
+            h.write_f32s(&g.values);
         }
     }
     h.write(format!("{:?} {:?} {:?}", scene.global_medium, scene.lights, scene.camera).as_bytes());

@@ -13,6 +13,31 @@ use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"BLACCUM1";
 
+/// FNV-1a, 64 bits: a stable content hash for fingerprints (accumulators, the benchmark's
+/// reference cache), not a security hash. Std's hasher may change between Rust versions.
+pub struct Fnv1a(pub u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv1a {
+    pub fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 = (self.0 ^ *b as u64).wrapping_mul(0x100_0000_01b3);
+        }
+    }
+
+    /// The floats' bit patterns, little-endian.
+    pub fn write_f32s(&mut self, v: &[f32]) {
+        for x in v {
+            self.write(&x.to_bits().to_le_bytes());
+        }
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum AccumError {
     #[error("{path}: {message}")]

@@ -28,15 +28,8 @@
 //! * Baking: voxel `(i, j, k)` of a grid of resolution `n` holds `d` at the voxel centre
 //!   `u = ((i, j, k) + 0.5) / n`; the grid is then sampled trilinearly like every density grid.
 use crate::medium::DensityGrid;
+use crate::rng::pcg_hash as pcg;
 use glam::{UVec3, Vec3};
-
-/// The PCG hash (O'Neill; Jarzynski & Olano 2020, "Hash functions for GPU rendering").
-#[inline]
-fn pcg(v: u32) -> u32 {
-    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
-    (word >> 22) ^ word
-}
 
 #[inline]
 fn hash(x: i32, y: i32, z: i32, seed: u32) -> u32 {

@@ -32,14 +32,6 @@ impl RefSettings {
     }
 }
 
-/// FNV-1a, 64 bits: a stable hash (std's hasher may change between Rust versions).
-fn fnv1a(h: &mut u64, bytes: &[u8]) {
-    for b in bytes {
-        *h ^= *b as u64;
-        *h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-}
-
 /// The scene's TOML and every file it refers to: any string value naming an existing file
 /// beside it (glTF, grids), and a `.gltf`'s external buffers and images.
 pub fn scene_files(scene: &Path) -> Result<Vec<PathBuf>> {
@@ -85,15 +77,15 @@ fn collect_strings(v: &toml::Value, out: &mut Vec<String>) {
 
 /// The cache key: a hash of the contents of every scene file and of the settings.
 pub fn cache_key(scene: &Path, settings: &RefSettings) -> Result<String> {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut h = beamlight_render::accum::Fnv1a::default();
     for f in scene_files(scene)? {
         let bytes = std::fs::read(&f).with_context(|| format!("reading {}", f.display()))?;
-        fnv1a(&mut h, f.file_name().map(|n| n.as_encoded_bytes()).unwrap_or_default());
-        fnv1a(&mut h, &(bytes.len() as u64).to_le_bytes());
-        fnv1a(&mut h, &bytes);
+        h.write(f.file_name().map(|n| n.as_encoded_bytes()).unwrap_or_default());
+        h.write(&(bytes.len() as u64).to_le_bytes());
+        h.write(&bytes);
     }
-    fnv1a(&mut h, settings.describe().as_bytes());
-    Ok(format!("{h:016x}"))
+    h.write(settings.describe().as_bytes());
+    Ok(format!("{:016x}", h.0))
 }
 
 /// A loaded reference.
