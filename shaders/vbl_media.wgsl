@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/light_tree.wgsl
 // Lmm with virtual beam lights: every VRL, its points inflated to radius R, against one
 // camera media segment, the twin of `beamlight_trace::vbl::vbl_to_media` (paper eq. 10): the
 // VSL centre on the VRL ∝ 1/(distance to the camera line)², floored at R, then the camera
@@ -116,9 +117,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let seg = media_segments[i];
     var sum = vec3<f32>(0.0);
-    for (var j = 0u; j < params.lights; j++) {
-        var s = pair_sampler(KIND_VRL_TO_MEDIA, i, j);
-        sum += vbl_to_media(seg, vrls[j], &s);
+    if params.light_samples == 0u {
+        for (var j = 0u; j < params.lights; j++) {
+            var s = pair_sampler(KIND_VRL_TO_MEDIA, i, j);
+            sum += vbl_to_media(seg, vrls[j], &s);
+        }
+    } else if params.vbl_tree_nodes > 0u {
+        // Light selection: `light_samples` lights drawn from the pass's tree, each over its
+        // probability (`many_lights::timed_drawn`).
+        let receiver = segment_receiver(seg.origin, seg.dir, seg.length);
+        let xi = selection_number(KIND_VRL_TO_MEDIA, i);
+        for (var k = 0u; k < params.light_samples; k++) {
+            let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, k, xi);
+            if pick.found {
+                var s = drawn_pair_sampler(KIND_VRL_TO_MEDIA, i, k);
+                sum += vbl_to_media(seg, vrls[pick.light], &s) / pick.pmf;
+            }
+        }
+        sum = sum / f32(params.light_samples);
     }
     gathered[i] = vec4<f32>(sum * params.scale, 0.0);
 }

@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/light_tree.wgsl
 // Lms with virtual spherical lights: every VPL, inflated to radius R, against one camera
 // media segment, the twin of `beamlight_trace::vbl::vsl_to_media` (paper §3.3): the camera
 // point by a piecewise-linear PDF in the angle about the VPL, then the VSL's cone integrated
@@ -68,9 +69,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let seg = media_segments[i];
     var sum = vec3<f32>(0.0);
-    for (var j = 0u; j < params.lights; j++) {
-        var s = pair_sampler(KIND_VPL_TO_MEDIA, i, j);
-        sum += vsl_to_media(seg, vpls[j], vpl_bsdfs[j], &s);
+    if params.light_samples == 0u {
+        for (var j = 0u; j < params.lights; j++) {
+            var s = pair_sampler(KIND_VPL_TO_MEDIA, i, j);
+            sum += vsl_to_media(seg, vpls[j], vpl_bsdfs[j], &s);
+        }
+    } else if params.vsl_tree_nodes > 0u {
+        // Light selection: `light_samples` lights drawn from the pass's tree, each over its
+        // probability (`many_lights::timed_drawn`).
+        let receiver = segment_receiver(seg.origin, seg.dir, seg.length);
+        let xi = selection_number(KIND_VPL_TO_MEDIA, i);
+        for (var k = 0u; k < params.light_samples; k++) {
+            let pick = tree_sample_slot(0u, receiver, k, xi);
+            if pick.found {
+                var s = drawn_pair_sampler(KIND_VPL_TO_MEDIA, i, k);
+                sum += vsl_to_media(seg, vpls[pick.light], vpl_bsdfs[pick.light], &s) / pick.pmf;
+            }
+        }
+        sum = sum / f32(params.light_samples);
     }
     gathered[i] = vec4<f32>(sum * params.scale, 0.0);
 }

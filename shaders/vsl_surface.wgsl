@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/light_tree.wgsl
 // Lss with virtual spherical lights: every VPL, inflated to radius R, against one shading
 // point, the twin of `beamlight_trace::vbl::vsl_to_surface` (Hašan et al.'s VSLs).
 
@@ -38,9 +39,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
     if f_sp.kind != BSDF_NONE {
         let rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
-        for (var j = 0u; j < params.lights; j++) {
-            var s = pair_sampler(KIND_VPL_TO_SURFACE, i, j);
-            sum += vsl_to_surface(sp, rx, vpls[j], vpl_bsdfs[j], &s);
+        if params.light_samples == 0u {
+            for (var j = 0u; j < params.lights; j++) {
+                var s = pair_sampler(KIND_VPL_TO_SURFACE, i, j);
+                sum += vsl_to_surface(sp, rx, vpls[j], vpl_bsdfs[j], &s);
+            }
+        } else if params.vsl_tree_nodes > 0u {
+            // Light selection: `light_samples` lights drawn from the pass's tree, each over its
+            // probability (`many_lights::timed_drawn`).
+            let receiver = point_receiver(sp.pos, sp.normal);
+            let xi = selection_number(KIND_VPL_TO_SURFACE, i);
+            for (var k = 0u; k < params.light_samples; k++) {
+                let pick = tree_sample_slot(0u, receiver, k, xi);
+                if pick.found {
+                    var s = drawn_pair_sampler(KIND_VPL_TO_SURFACE, i, k);
+                    sum += vsl_to_surface(sp, rx, vpls[pick.light], vpl_bsdfs[pick.light], &s) / pick.pmf;
+                }
+            }
+            sum = sum / f32(params.light_samples);
         }
     }
     gathered[i] = vec4<f32>(sum * params.scale, 0.0);

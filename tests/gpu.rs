@@ -12,6 +12,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
+    light_tree::{LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, AngularPdf, VblSettings},
     vpl, vrl,
@@ -211,7 +212,10 @@ fn compare_gathers_chunked(
     let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, seed, pass);
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 32, seed, pass);
     let pair_seed = streams::pair_seed(seed);
-    let run = |kernels: [GatherKernel; 4], radius2: f32| {
+    let vsl_tree = LightTree::over_vsls(&ts.scene, &lights.vpls);
+    let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
+    // `light_samples` lights drawn per record from the trees, or 0 for all pairs.
+    let run = |kernels: [GatherKernel; 4], radius2: f32, light_samples: u32| {
         let inputs = GatherInputs {
             shading_points: &gather.shading_points,
             media_segments: &gather.media_segments,
@@ -223,6 +227,9 @@ fn compare_gathers_chunked(
             clamp: clamp.unwrap_or(0.0),
             radius2,
             vbl: vbl_settings,
+            light_samples,
+            vsl_tree: if light_samples > 0 { &vsl_tree.nodes } else { &[] },
+            vbl_tree: if light_samples > 0 { &vbl_tree.nodes } else { &[] },
         };
         let clock = Instant::now();
         let g = backend
@@ -243,7 +250,7 @@ fn compare_gathers_chunked(
     let (vpls, vrls) = (&lights.vpls, &lights.vrls);
 
     if let Some(clamp) = clamp {
-        let (g, gpu_time) = run(GatherKernel::RAYS, 0.0);
+        let (g, gpu_time) = run(GatherKernel::RAYS, 0.0, 0);
         let clock = Instant::now();
         let cpu: [Vec<Rgb>; 4] = [
             per_record(sps, vpls, m, |i, sp, j, v| {
@@ -277,7 +284,7 @@ fn compare_gathers_chunked(
 
     for &r in radii {
         let r2 = r * r;
-        let (g, gpu_time) = run(GatherKernel::BEAMS, r2);
+        let (g, gpu_time) = run(GatherKernel::BEAMS, r2, 0);
         let clock = Instant::now();
         let s = &vbl_settings;
         let cpu: [Vec<Rgb>; 4] = [
@@ -304,7 +311,95 @@ fn compare_gathers_chunked(
         for (k, cpu) in GatherKernel::BEAMS.into_iter().zip(&cpu) {
             check_kernel(&format!("{name}, R = {r}"), k, &g.results[k as usize], cpu);
         }
+
+        // Light selection: the same lights drawn per record on both sides (the WGSL tree
+        // descent is the CPU's twin), each over its probability.
+        let samples = 3;
+        let (g, _) = run(GatherKernel::BEAMS, r2, samples);
+        let drawn = |kind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
+        let xi = |kind, i: usize| streams::selection_number(pair_seed, pass, kind, i as u32);
+        let cpu: [Vec<Rgb>; 4] = [
+            per_drawn(
+                sps,
+                &vsl_tree,
+                r,
+                samples,
+                m,
+                Receiver::at_point,
+                |i| xi(GatherKind::VplToSurface, i),
+                |i, sp, slot, j| {
+                    let kind = GatherKind::VplToSurface;
+                    vbl::vsl_to_surface(&ts, sp, &vpls[j], r2, s, &mut drawn(kind, i, slot))
+                },
+            ),
+            per_drawn(
+                sps,
+                &vbl_tree,
+                r,
+                samples,
+                m,
+                Receiver::at_point,
+                |i| xi(GatherKind::VrlToSurface, i),
+                |i, sp, slot, j| {
+                    let kind = GatherKind::VrlToSurface;
+                    vbl::vbl_to_surface(&ts, sp, &vrls[j], r2, s, &mut drawn(kind, i, slot))
+                },
+            ),
+            per_drawn(
+                segs,
+                &vsl_tree,
+                r,
+                samples,
+                m,
+                Receiver::along_segment,
+                |i| xi(GatherKind::VplToMedia, i),
+                |i, seg, slot, j| {
+                    let kind = GatherKind::VplToMedia;
+                    vbl::vsl_to_media(&ts, seg, &vpls[j], r2, s, &mut drawn(kind, i, slot))
+                },
+            ),
+            per_drawn(
+                segs,
+                &vbl_tree,
+                r,
+                samples,
+                m,
+                Receiver::along_segment,
+                |i| xi(GatherKind::VrlToMedia, i),
+                |i, seg, slot, j| {
+                    let kind = GatherKind::VrlToMedia;
+                    vbl::vbl_to_media(&ts, seg, &vrls[j], r2, s, &mut drawn(kind, i, slot))
+                },
+            ),
+        ];
+        for (k, cpu) in GatherKernel::BEAMS.into_iter().zip(&cpu) {
+            check_kernel(
+                &format!("{name}, R = {r}, {samples} drawn lights"),
+                k,
+                &g.results[k as usize],
+                cpu,
+            );
+        }
     }
+}
+
+/// Per record, [`LightTree::estimate`] with the record's selection number `xi(record index)`
+/// of `f(record index, record, slot, light index)`, over `m` light paths.
+fn per_drawn<R>(
+    records: &[R],
+    tree: &LightTree,
+    r: f32,
+    samples: u32,
+    m: f32,
+    receiver: impl Fn(&R) -> Receiver,
+    xi: impl Fn(usize) -> f32,
+    f: impl Fn(usize, &R, u32, usize) -> Rgb,
+) -> Vec<Rgb> {
+    records
+        .iter()
+        .enumerate()
+        .map(|(i, rec)| tree.estimate(&receiver(rec), r, samples, xi(i), |slot, j| f(i, rec, slot, j)) / m)
+        .collect()
 }
 
 #[test]

@@ -315,6 +315,9 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             clamp: 0.0,
             radius2: r2,
             vbl: settings,
+            light_samples: 0,
+            vsl_tree: &[],
+            vbl_tree: &[],
         };
         let g = backend
             .gathers

@@ -73,8 +73,11 @@ struct GatherParams {
     angular_pdf: u32,
     // Index of this dispatch's first record in the pass: the bound arrays start there.
     record_offset: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // Lights a record draws per kernel from the light tree (0: every light, all pairs), and
+    // the sizes of the VSL and VBL trees in `light_tree` (`lib/light_tree.wgsl`).
+    light_samples: u32,
+    vsl_tree_nodes: u32,
+    vbl_tree_nodes: u32,
 }
 
 const ANGULAR_PDF_VBL: u32 = 0u;

@@ -151,6 +151,10 @@ struct RenderArgs {
     /// Light paths traced per pass by the many-light methods (each leaves several VPLs/VRLs).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..))]
     light_paths: u32,
+    /// `vbl`: virtual lights each gather record draws per component from the pass's light
+    /// tree (1–1024), or `all` to gather every light of the pass (the all-pairs estimator).
+    #[arg(long, default_value = "4", value_name = "N|all", value_parser = parse_light_samples)]
+    light_samples: LightSamples,
     /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
     #[arg(long)]
     clamp_distance: Option<f32>,
@@ -193,6 +197,20 @@ struct RenderArgs {
     /// and without start-up, passes, and the CPU and GPU seconds of each transport component.
     #[arg(long, value_name = "FILE")]
     stats_json: Option<PathBuf>,
+}
+
+/// `--light-samples`: a count, or `None` for all pairs.
+#[derive(Clone, Copy, Debug)]
+struct LightSamples(Option<u32>);
+
+fn parse_light_samples(s: &str) -> Result<LightSamples, String> {
+    if s == "all" {
+        return Ok(LightSamples(None));
+    }
+    match s.parse::<u32>() {
+        Ok(n) if (1..=1024).contains(&n) => Ok(LightSamples(Some(n))),
+        _ => Err(format!("'{s}' is neither a number of lights in 1..=1024 nor 'all'")),
+    }
 }
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
@@ -352,6 +370,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         components: args.components || method != Method::Pt,
         many_lights: ManyLightSettings {
             light_paths_per_pass: args.light_paths,
+            light_samples: args.light_samples.0,
             clamp: args.clamp_distance.unwrap_or(0.0),
             radius: args.radius.unwrap_or(0.0),
             photon_radius: args.photon_radius.unwrap_or(0.0),

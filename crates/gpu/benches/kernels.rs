@@ -115,6 +115,9 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
         clamp: 0.0,
         radius2,
         vbl,
+        light_samples: 0,
+        vsl_tree: &[],
+        vbl_tree: &[],
     };
     b.gathers
         .run(

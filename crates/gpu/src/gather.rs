@@ -11,6 +11,7 @@ use beamlight_scene::{Rgb, Scene, bsdf};
 use beamlight_trace::{
     camera_paths::{MediaSegment, ShadingPoint},
     light_paths::{LightSegment, SurfaceVertex},
+    light_tree::LightTreeNode,
     vbl::{AngularPdf, VblSettings},
 };
 use glam::Vec2;
@@ -149,6 +150,12 @@ pub struct GatherInputs<'a> {
     pub radius2: f32,
     /// The VBL/VSL estimators' settings (the `vbl` kernels).
     pub vbl: VblSettings,
+    /// Lights each record draws per kernel from the trees below (`vbl` kernels); 0 gathers
+    /// every light.
+    pub light_samples: u32,
+    /// The pass's light trees over `vpls` and `vrls` (empty without light selection).
+    pub vsl_tree: &'a [LightTreeNode],
+    pub vbl_tree: &'a [LightTreeNode],
 }
 
 impl GatherInputs<'_> {
@@ -187,7 +194,7 @@ pub struct Gathers {
 }
 
 /// The slots of bind group 1 (see `lib/gather.wgsl`).
-const GATHER_SLOTS: [Slot; 8] = [
+const GATHER_SLOTS: [Slot; 9] = [
     Slot::Uniform,
     Slot::Read,
     Slot::Read,
@@ -196,6 +203,8 @@ const GATHER_SLOTS: [Slot; 8] = [
     Slot::Read,
     Slot::Read,
     Slot::ReadWrite,
+    // The light trees (`lib/light_tree.wgsl`).
+    Slot::Read,
 ];
 
 impl Gathers {
@@ -294,6 +303,9 @@ impl Gathers {
         };
         let vpl_bsdfs = compute::storage(gpu, "VPL BSDFs", &vpl_bsdfs)?;
         let vrls = compute::storage(gpu, "VRLs", if need_vrls { inputs.vrls } else { &[] })?;
+        // Both trees in one binding: the VSL tree's nodes, then the VBL tree's.
+        let trees: Vec<LightTreeNode> = inputs.vsl_tree.iter().chain(inputs.vbl_tree).copied().collect();
+        let trees = compute::storage(gpu, "light trees", &trees)?;
 
         let mut timer = Timer::new(gpu, KERNELS as u32);
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
@@ -331,7 +343,9 @@ impl Gathers {
                         AngularPdf::Vrl => ANGULAR_PDF_VRL,
                     },
                     record_offset: first as u32,
-                    ..Default::default()
+                    light_samples: inputs.light_samples,
+                    vsl_tree_nodes: inputs.vsl_tree.len() as u32,
+                    vbl_tree_nodes: inputs.vbl_tree.len() as u32,
                 };
                 let params = compute::uniform(gpu, "gather params", &params);
                 // This chunk's records; of the other kind's array (unused) just its start.
@@ -362,6 +376,7 @@ impl Gathers {
                         compute::Binding::Whole(&vpl_bsdfs),
                         compute::Binding::Whole(&vrls),
                         chunk_of(&out, first, n, 16, true),
+                        compute::Binding::Whole(&trees),
                     ],
                 );
                 pass.set_bind_group(1, &group, &[]);

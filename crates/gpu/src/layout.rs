@@ -157,8 +157,11 @@ pub struct GatherParams {
     pub angular_pdf: u32,
     /// Index of this dispatch's first record in the pass (dispatches bind chunks of records).
     pub record_offset: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// Lights a record draws from the light tree (0: every light, the all-pairs gather).
+    pub light_samples: u32,
+    /// Nodes of the VSL tree, first in the tree binding, and of the VBL tree after it.
+    pub vsl_tree_nodes: u32,
+    pub vbl_tree_nodes: u32,
 }
 
 /// `GatherParams::angular_pdf`: the paper's vertex values (at ω'_max).

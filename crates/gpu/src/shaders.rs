@@ -19,6 +19,10 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("lib/gather.wgsl", include_str!("../../../shaders/lib/gather.wgsl")),
     ("lib/sampling.wgsl", include_str!("../../../shaders/lib/sampling.wgsl")),
     ("lib/vbl.wgsl", include_str!("../../../shaders/lib/vbl.wgsl")),
+    (
+        "lib/light_tree.wgsl",
+        include_str!("../../../shaders/lib/light_tree.wgsl"),
+    ),
     ("trace_rays.wgsl", include_str!("../../../shaders/trace_rays.wgsl")),
     ("vpl_surface.wgsl", include_str!("../../../shaders/vpl_surface.wgsl")),
     ("vrl_surface.wgsl", include_str!("../../../shaders/vrl_surface.wgsl")),

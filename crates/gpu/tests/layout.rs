@@ -105,8 +105,9 @@ fn gather_structs_match() {
             uniform_share,
             angular_pdf,
             record_offset,
-            _pad1,
-            _pad2
+            light_samples,
+            vsl_tree_nodes,
+            vbl_tree_nodes
         ]
     );
     check!(
@@ -117,4 +118,7 @@ fn gather_structs_match() {
     check!(w, MediaSegment, [origin, length, dir, medium, throughput, pixel]);
     check!(w, SurfaceVertex, [pos, material, normal, tri, wi, u, power, v]);
     check!(w, LightSegment, [origin, length, dir, medium, power, flags]);
+    let w = parse("vbl_media.wgsl");
+    use beamlight_trace::light_tree::LightTreeNode;
+    check!(w, LightTreeNode, [lo, weight, hi, child]);
 }

@@ -20,6 +20,7 @@ use beamlight_trace::{
     components::Component,
     direct,
     light_paths::{LightTracerSettings, trace_light_paths},
+    light_tree::{LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
@@ -56,7 +57,14 @@ pub struct ManyLightSettings {
     pub photon_radius: f32,
     /// The radius reduction's α of eq. 11, in (0, 1): smaller shrinks faster.
     pub alpha: f32,
+    /// Lights each gather record draws per component from the pass's light tree (`vbl`
+    /// only, [`beamlight_trace::light_tree`]); `None` gathers every light of the pass (the
+    /// all-pairs estimator, `--light-samples all`, the oracle of the sampled one).
+    pub light_samples: Option<u32>,
 }
+
+/// Lights a gather record draws per component by default (`--light-samples`).
+pub const DEFAULT_LIGHT_SAMPLES: u32 = 4;
 
 impl Default for ManyLightSettings {
     fn default() -> Self {
@@ -68,6 +76,7 @@ impl Default for ManyLightSettings {
             radius: 0.0,
             photon_radius: 0.0,
             alpha: 0.7,
+            light_samples: Some(DEFAULT_LIGHT_SAMPLES),
         }
     }
 }
@@ -222,6 +231,16 @@ pub fn start_pass(
     let beams = BeamMap::build(&lights.photon_beams, photon_r2);
     times.trace = clock.elapsed();
     let beams_on = settings.lights == VirtualLights::Beams;
+    // With light selection, each record draws `k` lights per component from the pass's trees.
+    let r = r2.max(0.0).sqrt();
+    let selection = match (beams_on, settings.light_samples) {
+        (true, Some(k)) => Some(Selection {
+            k: k.max(1),
+            vsls: LightTree::over_vsls(&ts.scene, &lights.vpls),
+            vbls: LightTree::over_vbls(&ts.scene, &lights.vrls),
+        }),
+        _ => None,
+    };
     let kernels = gpu_kernels(settings.lights);
     let gpu = gpu.filter(|_| gpu_has_kernels(settings.lights));
     let pair_seed = streams::pair_seed(seed);
@@ -241,6 +260,9 @@ pub fn start_pass(
                 clamp: settings.clamp,
                 radius2: r2,
                 vbl: settings.vbl,
+                light_samples: selection.as_ref().map_or(0, |s| s.k),
+                vsl_tree: selection.as_ref().map_or(&[], |s| &s.vsls.nodes),
+                vbl_tree: selection.as_ref().map_or(&[], |s| &s.vbls.nodes),
             },
             std::array::from_fn(|k| kernels.contains(&GatherKernel::ALL[k])),
         )?),
@@ -252,6 +274,9 @@ pub fn start_pass(
     // has its own ([`streams`]), which the GPU kernels draw from too.
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind);
     let pair = |kind: GatherKind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
+    let drawn =
+        |kind: GatherKind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
+    let xi = |kind: GatherKind, i: usize| streams::selection_number(pair_seed, pass, kind, i as u32);
     let on_cpu = pending.is_none();
 
     // Each gather point against every virtual light: the sum over a light set divided by its
@@ -269,7 +294,30 @@ pub fn start_pass(
                 direct::direct_at_surface(ts, sp, &mut s)
             });
             if on_cpu {
-                let (lss, lsm) = if beams_on {
+                let (lss, lsm) = if let Some(sel) = &selection {
+                    let rx = Receiver::at_point(sp);
+                    let (vsl, vbl_k) = (GatherKind::VplToSurface, GatherKind::VrlToSurface);
+                    (
+                        timed_drawn(
+                            &mut t[Component::Lss as usize],
+                            &sel.vsls,
+                            &rx,
+                            r,
+                            sel.k,
+                            xi(vsl, i),
+                            |slot, j| vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, &mut drawn(vsl, i, slot)),
+                        ),
+                        timed_drawn(
+                            &mut t[Component::Lsm as usize],
+                            &sel.vbls,
+                            &rx,
+                            r,
+                            sel.k,
+                            xi(vbl_k, i),
+                            |slot, j| vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, &mut drawn(vbl_k, i, slot)),
+                        ),
+                    )
+                } else if beams_on {
                     (
                         timed_sum(&mut t[Component::Lss as usize], &lights.vpls, |j, v| {
                             vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j))
@@ -311,7 +359,30 @@ pub fn start_pass(
                 direct::direct_in_medium(ts, seg, &mut s)
             });
             if on_cpu {
-                let (lms, lmm) = if beams_on {
+                let (lms, lmm) = if let Some(sel) = &selection {
+                    let rx = Receiver::along_segment(seg);
+                    let (vsl, vbl_k) = (GatherKind::VplToMedia, GatherKind::VrlToMedia);
+                    (
+                        timed_drawn(
+                            &mut t[Component::Lms as usize],
+                            &sel.vsls,
+                            &rx,
+                            r,
+                            sel.k,
+                            xi(vsl, i),
+                            |slot, j| vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, &mut drawn(vsl, i, slot)),
+                        ),
+                        timed_drawn(
+                            &mut t[Component::Lmm as usize],
+                            &sel.vbls,
+                            &rx,
+                            r,
+                            sel.k,
+                            xi(vbl_k, i),
+                            |slot, j| vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, &mut drawn(vbl_k, i, slot)),
+                        ),
+                    )
+                } else if beams_on {
                     (
                         timed_sum(&mut t[Component::Lms as usize], &lights.vpls, |j, v| {
                             vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j))
@@ -357,6 +428,29 @@ pub fn start_pass(
         segment_pixels: gather.media_segments.iter().map(|seg| seg.pixel).collect(),
         times,
     })
+}
+
+/// One pass's light trees and the lights each record draws from each.
+struct Selection {
+    k: u32,
+    vsls: LightTree,
+    vbls: LightTree,
+}
+
+/// [`LightTree::estimate`], its CPU time added to `seconds` (an empty tree is not timed).
+fn timed_drawn(
+    seconds: &mut f64,
+    tree: &LightTree,
+    rx: &Receiver,
+    r: f32,
+    k: u32,
+    xi: f32,
+    f: impl FnMut(u32, usize) -> Rgb,
+) -> Rgb {
+    if tree.is_empty() {
+        return Rgb::ZERO;
+    }
+    timed(seconds, || tree.estimate(rx, r, k, xi, f))
 }
 
 /// Σ over a light set of each virtual light's contribution, `f(index, light)`, its CPU time

@@ -8,6 +8,7 @@ pub mod context;
 pub mod direct;
 pub mod geometry;
 pub mod light_paths;
+pub mod light_tree;
 pub mod lights;
 pub mod media;
 pub mod pt;

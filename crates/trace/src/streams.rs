@@ -29,3 +29,25 @@ pub fn pair_sampler(pair_seed: u32, pass: u32, kind: GatherKind, record: u32, li
         record.wrapping_mul(4).wrapping_add(kind as u32),
     )
 }
+
+/// With light selection: the stream of the `slot`-th light gather record `record` drew. Keyed
+/// by the slot, not the light, so two strata that draw the same light sample it
+/// independently.
+pub fn drawn_pair_sampler(pair_seed: u32, pass: u32, kind: GatherKind, record: u32, slot: u32) -> Sampler {
+    Sampler::new(
+        pcg_hash(pair_seed ^ 0x68e3_1da4).wrapping_add(slot),
+        pass,
+        record.wrapping_mul(4).wrapping_add(kind as u32),
+    )
+}
+
+/// With light selection: the number ξ in [0, 1) that stratifies record `record`'s draws,
+/// (slot + ξ)/K for slot = 0 … K − 1.
+pub fn selection_number(pair_seed: u32, pass: u32, kind: GatherKind, record: u32) -> f32 {
+    Sampler::new(
+        pcg_hash(pair_seed ^ 0xb529_7a4d),
+        pass,
+        record.wrapping_mul(4).wrapping_add(kind as u32),
+    )
+    .next_1d()
+}

@@ -1,0 +1,196 @@
+//! Light selection (`--light-samples K`, `beamlight_trace::light_tree`) against the all-pairs
+//! gather it replaces, which stays the oracle: on one pass's records and light set, the mean of
+//! the sampled estimate over independent selection and pair streams must equal the mean of the
+//! all-pairs estimate over independent pair streams, per component (Lss, Lsm, Lms, Lmm), in a
+//! fog box with Lambert walls, with glossy walls and g = 0.7, and in a lumpy (grid) medium.
+//!
+//! The tolerance is 4.5 combined standard errors of the two means (both estimated from the
+//! spread over streams), per channel of the image sum. It catches a probability that is not
+//! the one the light was drawn with, a missing 1/p, lights the bound wrongly culls (a box
+//! above the horizon given 0) and correlated strata; it cannot see a bias smaller than about
+//! 4.5 standard errors, here 1–3 % of each component.
+mod common;
+use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, rng::pcg_hash};
+use beamlight_trace::{
+    TraceScene,
+    camera_paths::{CameraPathSettings, trace_camera_paths},
+    light_paths::{LightTracerSettings, trace_light_paths},
+    light_tree::{LightTree, Receiver},
+    streams::{self, GatherKind},
+    vbl::{self, VblSettings},
+};
+use common::*;
+use glam::DVec3;
+
+/// Mean and standard error of a set of per-stream totals, per channel.
+fn mean_se(v: &[DVec3]) -> (DVec3, DVec3) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<DVec3>() / n;
+    let var = v.iter().map(|x| (*x - mean) * (*x - mean)).sum::<DVec3>() / (n - 1.0);
+    (mean, (var / n).map(f64::sqrt))
+}
+
+fn selection_matches_all_pairs(name: &str, scene: Scene) {
+    let ts = TraceScene::new(scene);
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    let (seed, pass) = (7, 3);
+    let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, seed, pass);
+    let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 24, seed, pass);
+    let (vpls, vrls) = (&lights.vpls, &lights.vrls);
+    let (sps, segs) = (&gather.shading_points, &gather.media_segments);
+    let vsl_tree = LightTree::over_vsls(&ts.scene, vpls);
+    let vbl_tree = LightTree::over_vbls(&ts.scene, vrls);
+    vsl_tree.validate(vpls.len()).unwrap();
+    vbl_tree.validate(vrls.len()).unwrap();
+    let r = 0.15f32;
+    let r2 = r * r;
+    let settings = VblSettings::default();
+    let k = 2;
+    // Independent streams: the pair seed is all that changes between repetitions.
+    let (all_runs, drawn_runs) = (12u32, 160u32);
+    let ps = |run: u32| pcg_hash(run.wrapping_mul(0x9e37_79b9) ^ 0x51ed);
+    eprintln!(
+        "{name}: {} points, {} segments, {} VSLs, {} VBLs",
+        sps.len(),
+        segs.len(),
+        vpls.len(),
+        vrls.len()
+    );
+
+    // One component: f(record, light, stream) over the records of `records`, gathered from
+    // the lights of `tree` (all of them, or k drawn ones).
+    fn compare<R>(
+        what: &str,
+        records: &[R],
+        n_lights: usize,
+        tree: &LightTree,
+        receiver: impl Fn(&R) -> Receiver,
+        kind: GatherKind,
+        r: f32,
+        k: u32,
+        (all_runs, drawn_runs): (u32, u32),
+        ps: impl Fn(u32) -> u32,
+        f: impl Fn(&R, usize, &mut beamlight_scene::rng::Sampler) -> Rgb,
+    ) {
+        let pass = 3;
+        let all: Vec<DVec3> = (0..all_runs)
+            .map(|run| {
+                let pair_seed = ps(run);
+                let mut total = DVec3::ZERO;
+                for (i, rec) in records.iter().enumerate() {
+                    for j in 0..n_lights {
+                        let mut s = streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
+                        total += f(rec, j, &mut s).as_dvec3();
+                    }
+                }
+                total
+            })
+            .collect();
+        let drawn: Vec<DVec3> = (0..drawn_runs)
+            .map(|run| {
+                let pair_seed = ps(1000 + run);
+                let mut total = DVec3::ZERO;
+                for (i, rec) in records.iter().enumerate() {
+                    let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
+                    let v = tree.estimate(&receiver(rec), r, k, xi, |slot, j| {
+                        f(
+                            rec,
+                            j,
+                            &mut streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot),
+                        )
+                    });
+                    assert!(v.is_finite(), "{what}: record {i} gave {v}");
+                    total += v.as_dvec3();
+                }
+                total
+            })
+            .collect();
+        let ((ma, sa), (mb, sb)) = (mean_se(&all), mean_se(&drawn));
+        let z = ((mb - ma) / (sa * sa + sb * sb).map(f64::sqrt)).abs().max_element();
+        eprintln!("  {what}: all pairs {ma:.4} ± {sa:.4}, {k} drawn {mb:.4} ± {sb:.4}, |z| {z:.2}");
+        assert!(ma.max_element() > 0.0, "{what}: the scene must have some");
+        assert!(
+            z < 4.5,
+            "{what}: the sampled mean differs from the all-pairs mean by {z:.1} standard errors"
+        );
+    }
+    let runs = (all_runs, drawn_runs);
+    compare(
+        "Lss",
+        sps,
+        vpls.len(),
+        &vsl_tree,
+        Receiver::at_point,
+        GatherKind::VplToSurface,
+        r,
+        k,
+        runs,
+        ps,
+        |sp, j, s| vbl::vsl_to_surface(&ts, sp, &vpls[j], r2, &settings, s),
+    );
+    compare(
+        "Lsm",
+        sps,
+        vrls.len(),
+        &vbl_tree,
+        Receiver::at_point,
+        GatherKind::VrlToSurface,
+        r,
+        k,
+        runs,
+        ps,
+        |sp, j, s| vbl::vbl_to_surface(&ts, sp, &vrls[j], r2, &settings, s),
+    );
+    compare(
+        "Lms",
+        segs,
+        vpls.len(),
+        &vsl_tree,
+        Receiver::along_segment,
+        GatherKind::VplToMedia,
+        r,
+        k,
+        runs,
+        ps,
+        |seg, j, s| vbl::vsl_to_media(&ts, seg, &vpls[j], r2, &settings, s),
+    );
+    compare(
+        "Lmm",
+        segs,
+        vrls.len(),
+        &vbl_tree,
+        Receiver::along_segment,
+        GatherKind::VrlToMedia,
+        r,
+        k,
+        runs,
+        ps,
+        |seg, j, s| vbl::vbl_to_media(&ts, seg, &vrls[j], r2, &settings, s),
+    );
+}
+
+#[test]
+fn drawn_lights_match_all_pairs_in_a_fog_box() {
+    selection_matches_all_pairs("fog box", fog_box(8, 8, false));
+}
+
+#[test]
+fn drawn_lights_match_all_pairs_with_glossy_walls_and_forward_scattering() {
+    let mut scene = fog_box(8, 8, false);
+    for m in &mut scene.materials {
+        if m.name == "wall" {
+            m.bsdf = Some(Bsdf::Phong {
+                diffuse: Rgb::splat(0.2),
+                specular: Rgb::splat(0.6),
+                exponent: 80.0,
+            });
+        }
+    }
+    scene.media[0].g = 0.7;
+    selection_matches_all_pairs("glossy fog box", scene);
+}
+
+#[test]
+fn drawn_lights_match_all_pairs_in_a_lumpy_medium() {
+    selection_matches_all_pairs("lumpy fog box", fog_box(8, 8, true));
+}
