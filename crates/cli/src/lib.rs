@@ -37,7 +37,13 @@ enum Command {
     /// Render a scene (TOML sidecar, or a .gltf/.glb alone) to a linear-RGB OpenEXR image.
     Render(Box<RenderArgs>),
     /// Compare two EXR images: RMSE, relMSE, MAE and maximum absolute error (B is the reference).
-    Compare { a: PathBuf, b: PathBuf },
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        /// Also compare every component layer the two files share (one line each).
+        #[arg(long)]
+        layers: bool,
+    },
     /// Describe a scene: geometry, materials, media, emitters, backend.
     Info { scene: PathBuf },
     /// Write the scene for Mitsuba 3 (XML, PLY meshes and .vol grids beside it), saying what
@@ -155,6 +161,14 @@ struct RenderArgs {
     /// tree (1–1024), or `all` to gather every light of the pass (the all-pairs estimator).
     #[arg(long, default_value = "4", value_name = "N|all", value_parser = parse_light_samples)]
     light_samples: LightSamples,
+    /// Many-light methods: camera samples per pixel per pass for direct light (its own pixel
+    /// jitter and next-event estimate each; the gathers use one).
+    #[arg(long, default_value_t = many_lights::DEFAULT_DIRECT_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    direct_samples: u32,
+    /// Many-light methods: light paths traced per pass for the caustics (photon mapping and
+    /// photon beams), apart from the gathers' `--light-paths`.
+    #[arg(long, default_value_t = many_lights::DEFAULT_CAUSTIC_PATHS, value_parser = clap::value_parser!(u32).range(1..))]
+    caustic_paths: u32,
     /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
     #[arg(long)]
     clamp_distance: Option<f32>,
@@ -220,7 +234,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(*args, start),
-        Command::Compare { a, b } => compare_cmd(&a, &b),
+        Command::Compare { a, b, layers } => compare_cmd(&a, &b, layers),
         Command::Info { scene } => info(&scene),
         Command::ExportMitsuba {
             scene,
@@ -371,6 +385,8 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         many_lights: ManyLightSettings {
             light_paths_per_pass: args.light_paths,
             light_samples: args.light_samples.0,
+            direct_samples: args.direct_samples,
+            caustic_paths: args.caustic_paths,
             clamp: args.clamp_distance.unwrap_or(0.0),
             radius: args.radius.unwrap_or(0.0),
             photon_radius: args.photon_radius.unwrap_or(0.0),
@@ -829,7 +845,7 @@ fn export_mitsuba(scene_path: &Path, output: &Path, width: Option<u32>, height: 
     Ok(())
 }
 
-fn compare_cmd(a: &Path, b: &Path) -> Result<()> {
+fn compare_cmd(a: &Path, b: &Path, layers: bool) -> Result<()> {
     let mut out = String::new();
     let (ia, _) = output::read_exr(a)?;
     let (ib, _) = output::read_exr(b)?;
@@ -838,6 +854,17 @@ fn compare_cmd(a: &Path, b: &Path) -> Result<()> {
     outln!(out, "relMSE  {:.6e}", m.rel_mse);
     outln!(out, "MAE     {:.6e}", m.mae);
     outln!(out, "max     {:.6e}", m.max_abs);
+    if layers {
+        let (la, lb) = (output::read_exr_layers(a)?, output::read_exr_layers(b)?);
+        for (name, image) in la.iter().filter(|(n, _)| !n.is_empty()) {
+            let Some((_, reference)) = lb.iter().find(|(n, _)| n == name) else {
+                continue;
+            };
+            let m = compare::compare(image, reference)
+                .map_err(|e| anyhow::anyhow!("layer {name} of {} vs {}: {e}", a.display(), b.display()))?;
+            outln!(out, "{name:<16} RMSE {:.6e}  relMSE {:.6e}", m.rmse, m.rel_mse);
+        }
+    }
     print_stdout(&out)
 }
 

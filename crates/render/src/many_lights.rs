@@ -15,7 +15,7 @@ use beamlight_gpu::{
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
-    camera_paths::{CameraPathSettings, trace_camera_paths},
+    camera_paths::{CameraPathSettings, GatherSet, trace_camera_paths},
     caustics::{BeamMap, PhotonMap},
     components::Component,
     direct,
@@ -61,10 +61,24 @@ pub struct ManyLightSettings {
     /// only, [`beamlight_trace::light_tree`]); `None` gathers every light of the pass (the
     /// all-pairs estimator, `--light-samples all`, the oracle of the sampled one).
     pub light_samples: Option<u32>,
+    /// Camera samples per pixel per pass for direct light (`--direct-samples`): the gather's
+    /// own and more, each with its own pixel jitter and one next-event estimate (light and
+    /// BSDF/phase sampling, MIS) at each of its records. Direct light costs little next to
+    /// the gathers, so it gets more samples and no longer sets the pass's noise.
+    pub direct_samples: u32,
+    /// Light paths traced per pass for the caustics alone (`--caustic-paths`), apart from
+    /// the gathers' light paths: a caustic photon or photon beam costs its path and a lookup,
+    /// not a gather over every record, so they come in thousands. Their radius follows eq. 11
+    /// with this count. 0 when the scene has no mirror or glass (no caustics to trace).
+    pub caustic_paths: u32,
 }
 
 /// Lights a gather record draws per component by default (`--light-samples`).
 pub const DEFAULT_LIGHT_SAMPLES: u32 = 4;
+/// Camera samples per pixel per pass for direct light by default (`--direct-samples`).
+pub const DEFAULT_DIRECT_SAMPLES: u32 = 4;
+/// Light paths per pass for the caustics by default (`--caustic-paths`).
+pub const DEFAULT_CAUSTIC_PATHS: u32 = 2048;
 
 impl Default for ManyLightSettings {
     fn default() -> Self {
@@ -77,6 +91,8 @@ impl Default for ManyLightSettings {
             photon_radius: 0.0,
             alpha: 0.7,
             light_samples: Some(DEFAULT_LIGHT_SAMPLES),
+            direct_samples: DEFAULT_DIRECT_SAMPLES,
+            caustic_paths: DEFAULT_CAUSTIC_PATHS,
         }
     }
 }
@@ -115,12 +131,13 @@ fn diagonal(scene: &beamlight_scene::Scene) -> f32 {
 /// The squared radius of pass `pass` (0-based) for initial radius `r0` and these settings'
 /// light paths per pass (M) and α, from eq. 11 in log space.
 pub fn pass_squared_radius(r0: f32, settings: &ManyLightSettings, pass: u32) -> f32 {
-    squared_radius(
-        r0 as f64,
-        settings.alpha as f64,
-        settings.light_paths_per_pass.max(1) as u64,
-        pass as u64 + 1,
-    ) as f32
+    paths_squared_radius(r0, settings.alpha, settings.light_paths_per_pass, pass)
+}
+
+/// The squared radius of pass `pass` (0-based) for initial radius `r0`, `paths` light paths
+/// per pass and α, from eq. 11 in log space.
+pub fn paths_squared_radius(r0: f32, alpha: f32, paths: u32, pass: u32) -> f32 {
+    squared_radius(r0 as f64, alpha as f64, paths.max(1) as u64, pass as u64 + 1) as f32
 }
 
 const N: usize = Component::ALL.len();
@@ -226,9 +243,23 @@ pub fn start_pass(
     );
     let m = lights.paths.max(1) as f32;
     let r2 = pass_squared_radius(settings.radius, settings, pass);
-    let photon_r2 = pass_squared_radius(settings.photon_radius, settings, pass);
-    let photons = PhotonMap::build(&lights.caustic_photons, photon_r2);
-    let beams = BeamMap::build(&lights.photon_beams, photon_r2);
+    // The caustics' own light paths (their VPLs and VRLs are not used).
+    let caustic_lights = if settings.caustic_paths > 0 {
+        let seed_c = beamlight_scene::rng::pcg_hash(seed ^ 0x1656_67b1);
+        trace_light_paths(
+            ts,
+            &LightTracerSettings::default(),
+            settings.caustic_paths,
+            seed_c,
+            pass,
+        )
+    } else {
+        Default::default()
+    };
+    let m_caustic = caustic_lights.paths.max(1) as f32;
+    let photon_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, settings.caustic_paths, pass);
+    let photons = PhotonMap::build(&caustic_lights.caustic_photons, photon_r2);
+    let beams = BeamMap::build(&caustic_lights.photon_beams, photon_r2);
     times.trace = clock.elapsed();
     let beams_on = settings.lights == VirtualLights::Beams;
     // With light selection, each record draws `k` lights per component from the pass's trees.
@@ -269,10 +300,22 @@ pub fn start_pass(
         None => None,
     };
     let clock = Instant::now();
-    out[Component::Direct as usize].copy_from_slice(&gather.emitted);
-    // Direct light and caustics keep one stream per record; each (record, virtual light) pair
-    // has its own ([`streams`]), which the GPU kernels draw from too.
-    let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind);
+    // Direct light: the gather's camera sample and `direct_samples − 1` more of its own.
+    let direct_samples = settings.direct_samples.max(1);
+    let direct = &mut out[Component::Direct as usize];
+    direct_light(ts, &gather, seed, pass, direct);
+    for k in 1..direct_samples {
+        let seed_k = direct_seed(seed, k);
+        let extra = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed_k, pass);
+        direct_light(ts, &extra, seed_k, pass, direct);
+    }
+    let scale = 1.0 / direct_samples as f32;
+    direct.iter_mut().for_each(|v| *v *= scale);
+    times.component_cpu[Component::Direct as usize] =
+        clock.elapsed().as_secs_f64() * rayon::current_num_threads() as f64;
+    // Caustics keep one stream per record; each (record, virtual light) pair has its own
+    // ([`streams`]), which the GPU kernels draw from too.
+    let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x7f4a_7c15, pass, (i as u32).wrapping_mul(2) + kind);
     let pair = |kind: GatherKind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
     let drawn =
         |kind: GatherKind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
@@ -287,12 +330,8 @@ pub fn start_pass(
         .par_iter()
         .enumerate()
         .map(|(i, sp)| {
-            let mut s = stream(0, i);
             let mut c = [Rgb::ZERO; N];
             let mut t = [0f64; N];
-            c[Component::Direct as usize] = timed(&mut t[Component::Direct as usize], || {
-                direct::direct_at_surface(ts, sp, &mut s)
-            });
             if on_cpu {
                 let (lss, lsm) = if let Some(sel) = &selection {
                     let rx = Receiver::at_point(sp);
@@ -339,9 +378,9 @@ pub fn start_pass(
                 c[Component::Lss as usize] = lss / m;
                 c[Component::Lsm as usize] = lsm / m;
             }
-            if !lights.caustic_photons.is_empty() {
+            if !photons.is_empty() {
                 c[Component::CausticSurface as usize] = timed(&mut t[Component::CausticSurface as usize], || {
-                    photons.radiance(ts, sp) / m
+                    photons.radiance(ts, sp) / m_caustic
                 });
             }
             (sp.pixel, c, t)
@@ -355,9 +394,6 @@ pub fn start_pass(
             let mut s = stream(1, i);
             let mut c = [Rgb::ZERO; N];
             let mut t = [0f64; N];
-            c[Component::Direct as usize] = timed(&mut t[Component::Direct as usize], || {
-                direct::direct_in_medium(ts, seg, &mut s)
-            });
             if on_cpu {
                 let (lms, lmm) = if let Some(sel) = &selection {
                     let rx = Receiver::along_segment(seg);
@@ -404,9 +440,9 @@ pub fn start_pass(
                 c[Component::Lms as usize] = lms / m;
                 c[Component::Lmm as usize] = lmm / m;
             }
-            if !lights.photon_beams.is_empty() {
+            if !beams.is_empty() {
                 c[Component::CausticVolume as usize] = timed(&mut t[Component::CausticVolume as usize], || {
-                    beams.radiance(ts, seg, &mut s) / m
+                    beams.radiance(ts, seg, &mut s) / m_caustic
                 });
             }
             (seg.pixel, c, t)
@@ -428,6 +464,36 @@ pub fn start_pass(
         segment_pixels: gather.media_segments.iter().map(|seg| seg.pixel).collect(),
         times,
     })
+}
+
+/// The seed of direct light's `k`-th extra camera sample (k ≥ 1) of a render with `seed`.
+fn direct_seed(seed: u32, k: u32) -> u32 {
+    beamlight_scene::rng::pcg_hash(seed ^ 0x2545_f491).wrapping_add(k)
+}
+
+/// Adds one camera sample's direct light to `out`, per pixel: emission seen directly (also
+/// through specular chains) and next-event estimation at each of its records, whose streams
+/// are keyed by `seed`.
+fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: &mut [Rgb]) {
+    let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind);
+    for (o, e) in out.iter_mut().zip(&gather.emitted) {
+        *o += *e;
+    }
+    let at_points: Vec<(u32, Rgb)> = gather
+        .shading_points
+        .par_iter()
+        .enumerate()
+        .map(|(i, sp)| (sp.pixel, direct::direct_at_surface(ts, sp, &mut stream(0, i))))
+        .collect();
+    let along_segments: Vec<(u32, Rgb)> = gather
+        .media_segments
+        .par_iter()
+        .enumerate()
+        .map(|(i, seg)| (seg.pixel, direct::direct_in_medium(ts, seg, &mut stream(1, i))))
+        .collect();
+    for (pixel, v) in at_points.into_iter().chain(along_segments) {
+        out[pixel as usize] += v;
+    }
 }
 
 /// One pass's light trees and the lights each record draws from each.

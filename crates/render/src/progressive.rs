@@ -126,6 +126,12 @@ pub fn render_from(
         } else {
             many_lights::default_radius(&ts.scene)
         },
+        // Without mirrors or glass there are no caustics: no light paths for them.
+        caustic_paths: if crate::components::SceneFeatures::of(&ts.scene).specular_surfaces {
+            opts.many_lights.caustic_paths
+        } else {
+            0
+        },
         photon_radius: if opts.many_lights.photon_radius > 0.0 {
             opts.many_lights.photon_radius
         } else {
@@ -170,6 +176,9 @@ pub fn render_from(
     let mut in_flight: Option<PassInFlight> = None;
     let gpu = opts.gpu.as_deref();
     let mut last_finish = Instant::now();
+    // Wall time between the last few pass completions (for the time budget).
+    let mut recent_periods: std::collections::VecDeque<Duration> = Default::default();
+    let mut last_completion = started;
     loop {
         let start_another = match opts.budget {
             Budget::Passes(n) => started_passes < n,
@@ -178,9 +187,10 @@ pub fn render_from(
             Budget::Time(_) if passes == 0 => started_passes == 0,
             Budget::Time(limit) => {
                 // Start a pass only if it is expected to finish within the budget: passes
-                // finish one period apart (the mean so far), and a new one finishes after the
-                // one in flight.
-                let period = started.elapsed() / passes as u32;
+                // finish one period apart, and a new one finishes after the one in flight.
+                // The period is the longest of the last few (the mean so far would carry the
+                // first pass's warm-up and stop a short budget early).
+                let period = recent_periods.iter().copied().max().unwrap_or_default();
                 let queued = 1 + in_flight.is_some() as u32;
                 opts.start.elapsed() + period * queued <= limit
             }
@@ -238,6 +248,11 @@ pub fn render_from(
             f.add_pass(b);
         }
         passes += 1;
+        if recent_periods.len() == 4 {
+            recent_periods.pop_front();
+        }
+        recent_periods.push_back(last_completion.elapsed());
+        last_completion = Instant::now();
         let go_on = on_pass(&Progress {
             passes,
             total,

@@ -11,6 +11,7 @@ use crate::{TraceScene, context::MAX_CROSSINGS, media};
 use beamlight_scene::{Rgb, bsdf::Bsdf, frame::Frame, rng::Sampler, scene::MediumId};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 /// A diffuse or glossy surface point seen from the camera (possibly through specular bounces).
 #[repr(C)]
@@ -95,33 +96,54 @@ pub fn trace_camera_paths(
     seed: u32,
     pass: u32,
 ) -> GatherSet {
+    let cam = &ts.scene.camera;
+    // Rows in parallel, each into its own set; joined in row order, so the records' order
+    // (which keys their random streams) is the same on any number of threads.
+    let rows: Vec<GatherSet> = (0..height)
+        .into_par_iter()
+        .map(|y| {
+            let mut row = GatherSet {
+                width,
+                height: 1,
+                emitted: vec![Rgb::ZERO; width as usize],
+                ..Default::default()
+            };
+            for x in 0..width {
+                let pixel = y * width + x;
+                let mut s = Sampler::new(seed, pass, pixel);
+                let j = s.next_2d();
+                let film = Vec2::new((x as f32 + j.x) / width as f32, (y as f32 + j.y) / height as f32);
+                let d = cam.direction(film, width as f32 / height as f32);
+                row.emitted[x as usize] = trace_one(
+                    ts,
+                    settings,
+                    pixel,
+                    cam.position(),
+                    d,
+                    ts.camera_medium,
+                    &mut s,
+                    &mut row,
+                );
+            }
+            row
+        })
+        .collect();
     let mut set = GatherSet {
         width,
         height,
-        emitted: vec![Rgb::ZERO; (width * height) as usize],
-        ..Default::default()
+        shading_points: Vec::with_capacity(rows.iter().map(|r| r.shading_points.len()).sum()),
+        media_segments: Vec::with_capacity(rows.iter().map(|r| r.media_segments.len()).sum()),
+        emitted: Vec::with_capacity((width * height) as usize),
     };
-    let cam = &ts.scene.camera;
-    for pixel in 0..width * height {
-        let mut s = Sampler::new(seed, pass, pixel);
-        let (x, y) = (pixel % width, pixel / width);
-        let j = s.next_2d();
-        let film = Vec2::new((x as f32 + j.x) / width as f32, (y as f32 + j.y) / height as f32);
-        let d = cam.direction(film, width as f32 / height as f32);
-        trace_one(
-            ts,
-            settings,
-            pixel,
-            cam.position(),
-            d,
-            ts.camera_medium,
-            &mut s,
-            &mut set,
-        );
+    for row in rows {
+        set.shading_points.extend(row.shading_points);
+        set.media_segments.extend(row.media_segments);
+        set.emitted.extend(row.emitted);
     }
     set
 }
 
+/// Follows one camera ray, pushing its records into `set`; returns the emission it saw.
 #[allow(clippy::too_many_arguments)]
 fn trace_one(
     ts: &TraceScene,
@@ -132,8 +154,9 @@ fn trace_one(
     mut medium: MediumId,
     s: &mut Sampler,
     set: &mut GatherSet,
-) {
+) -> Rgb {
     let scene = &ts.scene;
+    let mut emitted = Rgb::ZERO;
     let mut throughput = Rgb::ONE;
     let mut bounces = 0u32;
     let mut crossings = 0u32;
@@ -155,20 +178,20 @@ fn trace_one(
             }
             throughput *= ts.medium_transmittance(medium, o, d, length, s);
             if throughput == Rgb::ZERO {
-                return;
+                return emitted;
             }
         }
-        let Some(h) = hit else { return };
+        let Some(h) = hit else { return emitted };
         let sh = ts.surface(&h);
         let mat = ts.material(&sh);
         if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) {
-            set.emitted[pixel as usize] += throughput * mat.emission;
+            emitted += throughput * mat.emission;
         }
         let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
             medium = ts.medium_beyond(&sh, d, medium);
             crossings += 1;
             if crossings > MAX_CROSSINGS {
-                return;
+                return emitted;
             }
             o = sh.spawn(d);
             continue;
@@ -189,23 +212,23 @@ fn trace_one(
                 uv: uv.into(),
                 _pad2: [0; 2],
             });
-            return;
+            return emitted;
         }
         // Mirror or glass: follow the specular chain.
         let frame = Frame::from_normal(sh.ns);
         let Some(bs) = bsdf.sample(frame.to_local(wo), s.next_2d(), s.next_1d()) else {
-            return;
+            return emitted;
         };
         let wi = frame.to_world(bs.wi);
         if !matches!(bsdf, Bsdf::Glass { .. }) && sh.ng.dot(wi) * sh.ng.dot(wo) <= 0.0 {
-            return;
+            return emitted;
         }
         throughput *= bs.weight;
         bounces += 1;
         if bounces >= settings.rr_depth {
             let q = throughput.max_element().min(0.95);
             if s.next_1d() >= q {
-                return;
+                return emitted;
             }
             throughput /= q;
         }

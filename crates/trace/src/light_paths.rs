@@ -21,6 +21,7 @@ use crate::{
 use beamlight_scene::{Rgb, bsdf::TransportMode, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, scene::MediumId};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// A straight piece of a light path inside one medium: a virtual ray light, or a photon beam.
 #[repr(C)]
@@ -106,15 +107,31 @@ pub fn trace_light_paths(
     seed: u32,
     pass: u32,
 ) -> LightSet {
+    // Chunks of paths in parallel, joined in path order: the records' order (which keys the
+    // gathers' random streams) is the same on any number of threads.
+    const CHUNK: u32 = 64;
+    let chunks: Vec<LightSet> = (0..paths.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut part = LightSet::default();
+            for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
+                let mut s = Sampler::new(seed ^ 0x9e37_79b9, pass, k);
+                if let Some(e) = ts.lights.sample_emission(&ts.scene, &mut s) {
+                    trace_one(ts, settings, e, &mut s, &mut part);
+                }
+            }
+            part
+        })
+        .collect();
     let mut set = LightSet {
         paths,
         ..Default::default()
     };
-    for k in 0..paths {
-        let mut s = Sampler::new(seed ^ 0x9e37_79b9, pass, k);
-        if let Some(e) = ts.lights.sample_emission(&ts.scene, &mut s) {
-            trace_one(ts, settings, e, &mut s, &mut set);
-        }
+    for part in chunks {
+        set.vrls.extend(part.vrls);
+        set.vpls.extend(part.vpls);
+        set.caustic_photons.extend(part.caustic_photons);
+        set.photon_beams.extend(part.photon_beams);
     }
     set
 }
