@@ -128,7 +128,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let receiver = segment_receiver(seg.origin, seg.dir, seg.length);
         let xi = selection_number(KIND_VRL_TO_MEDIA, i);
         for (var k = 0u; k < params.light_samples; k++) {
-            let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, k, xi);
+            let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, KIND_VRL_TO_MEDIA, i, k, xi);
             if pick.found {
                 var s = drawn_pair_sampler(KIND_VRL_TO_MEDIA, i, k);
                 sum += vbl_to_media(seg, vrls[pick.light], &s) / pick.pmf;

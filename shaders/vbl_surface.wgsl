@@ -82,10 +82,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         } else if params.vbl_tree_nodes > 0u {
             // Light selection: `light_samples` lights drawn from the pass's tree, each over its
             // probability (`many_lights::timed_drawn`).
-            let receiver = point_receiver(sp.pos, sp.normal);
+            let receiver = point_receiver(sp.pos, sp.normal, sp.wo, f_sp);
             let xi = selection_number(KIND_VRL_TO_SURFACE, i);
             for (var k = 0u; k < params.light_samples; k++) {
-                let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, k, xi);
+                let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, KIND_VRL_TO_SURFACE, i, k, xi);
                 if pick.found {
                     var s = drawn_pair_sampler(KIND_VRL_TO_SURFACE, i, k);
                     sum += vbl_to_surface(sp, rx, vrls[pick.light], &s) / pick.pmf;

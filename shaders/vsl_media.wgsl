@@ -80,7 +80,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let receiver = segment_receiver(seg.origin, seg.dir, seg.length);
         let xi = selection_number(KIND_VPL_TO_MEDIA, i);
         for (var k = 0u; k < params.light_samples; k++) {
-            let pick = tree_sample_slot(0u, receiver, k, xi);
+            let pick = tree_sample_slot(0u, receiver, KIND_VPL_TO_MEDIA, i, k, xi);
             if pick.found {
                 var s = drawn_pair_sampler(KIND_VPL_TO_MEDIA, i, k);
                 sum += vsl_to_media(seg, vpls[pick.light], vpl_bsdfs[pick.light], &s) / pick.pmf;

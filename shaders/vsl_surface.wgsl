@@ -47,10 +47,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         } else if params.vsl_tree_nodes > 0u {
             // Light selection: `light_samples` lights drawn from the pass's tree, each over its
             // probability (`many_lights::timed_drawn`).
-            let receiver = point_receiver(sp.pos, sp.normal);
+            let receiver = point_receiver(sp.pos, sp.normal, sp.wo, f_sp);
             let xi = selection_number(KIND_VPL_TO_SURFACE, i);
             for (var k = 0u; k < params.light_samples; k++) {
-                let pick = tree_sample_slot(0u, receiver, k, xi);
+                let pick = tree_sample_slot(0u, receiver, KIND_VPL_TO_SURFACE, i, k, xi);
                 if pick.found {
                     var s = drawn_pair_sampler(KIND_VPL_TO_SURFACE, i, k);
                     sum += vsl_to_surface(sp, rx, vpls[pick.light], vpl_bsdfs[pick.light], &s) / pick.pmf;

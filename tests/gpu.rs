@@ -317,7 +317,6 @@ fn compare_gathers_chunked(
         let samples = 3;
         let (g, _) = run(GatherKernel::BEAMS, r2, samples);
         let drawn = |kind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
-        let xi = |kind, i: usize| streams::selection_number(pair_seed, pass, kind, i as u32);
         let cpu: [Vec<Rgb>; 4] = [
             per_drawn(
                 sps,
@@ -325,8 +324,9 @@ fn compare_gathers_chunked(
                 r,
                 samples,
                 m,
-                Receiver::at_point,
-                |i| xi(GatherKind::VplToSurface, i),
+                |sp| Receiver::at_point(&ts.scene, sp),
+                GatherKind::VplToSurface,
+                (pair_seed, pass),
                 |i, sp, slot, j| {
                     let kind = GatherKind::VplToSurface;
                     vbl::vsl_to_surface(&ts, sp, &vpls[j], r2, s, &mut drawn(kind, i, slot))
@@ -338,8 +338,9 @@ fn compare_gathers_chunked(
                 r,
                 samples,
                 m,
-                Receiver::at_point,
-                |i| xi(GatherKind::VrlToSurface, i),
+                |sp| Receiver::at_point(&ts.scene, sp),
+                GatherKind::VrlToSurface,
+                (pair_seed, pass),
                 |i, sp, slot, j| {
                     let kind = GatherKind::VrlToSurface;
                     vbl::vbl_to_surface(&ts, sp, &vrls[j], r2, s, &mut drawn(kind, i, slot))
@@ -352,7 +353,8 @@ fn compare_gathers_chunked(
                 samples,
                 m,
                 Receiver::along_segment,
-                |i| xi(GatherKind::VplToMedia, i),
+                GatherKind::VplToMedia,
+                (pair_seed, pass),
                 |i, seg, slot, j| {
                     let kind = GatherKind::VplToMedia;
                     vbl::vsl_to_media(&ts, seg, &vpls[j], r2, s, &mut drawn(kind, i, slot))
@@ -365,7 +367,8 @@ fn compare_gathers_chunked(
                 samples,
                 m,
                 Receiver::along_segment,
-                |i| xi(GatherKind::VrlToMedia, i),
+                GatherKind::VrlToMedia,
+                (pair_seed, pass),
                 |i, seg, slot, j| {
                     let kind = GatherKind::VrlToMedia;
                     vbl::vbl_to_media(&ts, seg, &vrls[j], r2, s, &mut drawn(kind, i, slot))
@@ -383,7 +386,7 @@ fn compare_gathers_chunked(
     }
 }
 
-/// Per record, [`LightTree::estimate`] with the record's selection number `xi(record index)`
+/// Per record, [`LightTree::estimate`] with the record's selection streams for kernel `kind`
 /// of `f(record index, record, slot, light index)`, over `m` light paths.
 fn per_drawn<R>(
     records: &[R],
@@ -392,13 +395,18 @@ fn per_drawn<R>(
     samples: u32,
     m: f32,
     receiver: impl Fn(&R) -> Receiver,
-    xi: impl Fn(usize) -> f32,
+    kind: GatherKind,
+    (pair_seed, pass): (u32, u32),
     f: impl Fn(usize, &R, u32, usize) -> Rgb,
 ) -> Vec<Rgb> {
     records
         .iter()
         .enumerate()
-        .map(|(i, rec)| tree.estimate(&receiver(rec), r, samples, xi(i), |slot, j| f(i, rec, slot, j)) / m)
+        .map(|(i, rec)| {
+            let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
+            let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
+            tree.estimate(&receiver(rec), r, samples, xi, descent, |slot, j| f(i, rec, slot, j)) / m
+        })
         .collect()
 }
 

@@ -92,7 +92,8 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
                 let mut total = DVec3::ZERO;
                 for (i, rec) in records.iter().enumerate() {
                     let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
-                    let v = tree.estimate(&receiver(rec), r, k, xi, |slot, j| {
+                    let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
+                    let v = tree.estimate(&receiver(rec), r, k, xi, descent, |slot, j| {
                         f(
                             rec,
                             j,
@@ -120,7 +121,7 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         sps,
         vpls.len(),
         &vsl_tree,
-        Receiver::at_point,
+        |sp| Receiver::at_point(&ts.scene, sp),
         GatherKind::VplToSurface,
         r,
         k,
@@ -133,7 +134,7 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         sps,
         vrls.len(),
         &vbl_tree,
-        Receiver::at_point,
+        |sp| Receiver::at_point(&ts.scene, sp),
         GatherKind::VrlToSurface,
         r,
         k,
@@ -193,4 +194,15 @@ fn drawn_lights_match_all_pairs_with_glossy_walls_and_forward_scattering() {
 #[test]
 fn drawn_lights_match_all_pairs_in_a_lumpy_medium() {
     selection_matches_all_pairs("lumpy fog box", fog_box(8, 8, true));
+}
+
+/// The furnace (walls that emit and reflect, a chromatic scatterer filling the box): VBLs
+/// start on every wall and cross the whole box.
+#[test]
+fn drawn_lights_match_all_pairs_in_the_furnace() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/furnace.toml");
+    let mut scene = beamlight_scene::load::load_scene(&path).unwrap();
+    scene.render.width = 8;
+    scene.render.height = 8;
+    selection_matches_all_pairs("furnace", scene);
 }

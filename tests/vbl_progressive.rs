@@ -54,7 +54,13 @@ fn vbl_components_converge_to_the_path_tracer() {
     // A 4×4 image of a 2-unit box is almost all walls and corners, where a sphere's blur loses
     // light (the boundary bias of every density estimate, first order in R): with the default
     // R0 (0.35 here) Lsm sits 6 % low after these passes. R0 = 0.1 shows the convergence.
+    // Every light gathered (`--light-samples all`): the estimator against the path tracer.
+    // The default light selection is checked against this one, its oracle, by z-tests in
+    // `tests/light_selection.rs`; here its extra variance (drawing 4 of ~1000 lights, with
+    // rare large f/p) would need far more passes to resolve a 5 % tolerance that the blur's
+    // own bias (issue 19: Lsm about 4 % low here) nearly uses up.
     let mut opts = options(Method::Vbl, w, h, 384, 200, 12);
+    opts.many_lights.light_samples = None;
     opts.many_lights.radius = 0.1;
     let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
@@ -108,7 +114,9 @@ fn vbl_error_shrinks_as_passes_go_on() {
 fn vbl_furnace_converges_to_two() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/furnace.toml");
     let ts = TraceScene::new(beamlight_scene::load::load_scene(&path).unwrap());
-    let result = render(&ts, &options(Method::Vbl, 8, 8, 48, 128, 4), |_| true).unwrap();
+    // With light selection a pass draws 4 lights per record and component instead of
+    // gathering all ~600 of 128 paths: 16× the passes for about the same time.
+    let result = render(&ts, &options(Method::Vbl, 8, 8, 768, 128, 4), |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
     let mean = result.film.image().mean();
     eprintln!("vbl furnace mean {mean} in {:?}", result.elapsed);
@@ -155,8 +163,13 @@ fn vbl_has_no_singular_pixels_where_vrl_does() {
     let ts = TraceScene::new(glossy_floor_box(w, h, 80.0));
     let reference = render(&ts, &options(Method::Pt, w, h, 2048, 64, 9), |_| true).unwrap();
     let reference = reference.components[Component::Lsm as usize].image();
-    let ratios = |method: Method, seed: u32| -> Vec<f32> {
-        let r = render(&ts, &options(method, w, h, 4, 64, seed), |_| true).unwrap();
+    // `vbl` gathering every light (the estimator whose singularities are in question), and
+    // with light selection at about the same number of pair evaluations per record (24 drawn
+    // of the ~100 lights of 64 paths) and the same light paths (so the same radii).
+    let ratios = |method: Method, seed: u32, light_samples: Option<u32>| -> Vec<f32> {
+        let mut opts = options(method, w, h, 4, 64, seed);
+        opts.many_lights.light_samples = light_samples;
+        let r = render(&ts, &opts, |_| true).unwrap();
         let image = r.components[Component::Lsm as usize].image();
         let mut ratios: Vec<f32> = image
             .pixels
@@ -167,21 +180,31 @@ fn vbl_has_no_singular_pixels_where_vrl_does() {
         ratios.sort_by(|a, b| a.total_cmp(b));
         ratios
     };
-    let (mut worst_vrl, mut worst_vbl) = (0.0f32, 0.0f32);
+    let (mut worst_vrl, mut worst_vbl, mut worst_drawn) = (0.0f32, 0.0f32, 0.0f32);
     for seed in 21..25 {
-        let (a, b) = (ratios(Method::Vrl, seed), ratios(Method::Vbl, seed));
+        let (a, b) = (ratios(Method::Vrl, seed, None), ratios(Method::Vbl, seed, None));
+        let c = ratios(Method::Vbl, seed, Some(24));
         let n = a.len();
         eprintln!(
-            "seed {seed}: Lsm pixel / reference: vrl 99th percentile {:.2}, max {:.2}; vbl {:.2}, {:.2}",
+            "seed {seed}: Lsm pixel / reference: vrl 99th percentile {:.2}, max {:.2}; vbl {:.2}, {:.2}; vbl drawing 24 {:.2}, {:.2}",
             a[n * 99 / 100],
             a[n - 1],
             b[n * 99 / 100],
-            b[n - 1]
+            b[n - 1],
+            c[n * 99 / 100],
+            c[n - 1]
         );
         worst_vrl += a[n - 1] / 4.0;
         worst_vbl += b[n - 1] / 4.0;
+        worst_drawn += c[n - 1] / 4.0;
     }
-    eprintln!("mean of the worst pixels: vrl {worst_vrl:.2}, vbl {worst_vbl:.2}");
+    eprintln!(
+        "mean of the worst pixels: vrl {worst_vrl:.2}, vbl {worst_vbl:.2}, vbl drawing 24 lights {worst_drawn:.2}"
+    );
     assert!(worst_vrl > 6.0, "the scene must show VRL singularities ({worst_vrl})");
     assert!(worst_vbl < 0.6 * worst_vrl, "vbl {worst_vbl} vs vrl {worst_vrl}");
+    assert!(
+        worst_drawn < 0.6 * worst_vrl,
+        "vbl drawing lights {worst_drawn} vs vrl {worst_vrl}"
+    );
 }

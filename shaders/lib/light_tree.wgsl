@@ -9,34 +9,130 @@ struct LightTreeNode {
     lo: vec3<f32>,
     weight: f32,
     hi: vec3<f32>,
-    // Interior: index of the left child (the right one follows); leaf: LIGHT_LEAF | light.
+    // Interior: index of the left child (the right one follows); leaf: LIGHT_LEAF | the
+    // segment's diagonal (bits 28–30) | light.
     child: u32,
+    // A segment leaf's extinction: its light fades like exp(−σt t) along it.
+    sigma_t: f32,
+    _pad: array<u32, 3>,
 }
 
 const LIGHT_LEAF: u32 = 0x80000000u;
+const LIGHT_MASK: u32 = 0x0fffffffu;
 // The largest f32 below 1.
 const ONE_BELOW: f32 = 0.99999994;
 
 @group(1) @binding(8) var<storage, read> light_tree: array<LightTreeNode>;
 
-// `light_tree::Receiver`: a shading point (a = p, b = n) or a media segment (a = o, b = d).
+// `light_tree::Receiver`: a shading point (a = p, b = n, and its `Gloss`) or a media segment
+// (a = o, b = d).
 struct Receiver {
     a: vec3<f32>,
     is_segment: bool,
     b: vec3<f32>,
     len: f32,
+    mirror: vec3<f32>,
+    exponent: f32,
+    diffuse: f32,
+    specular: f32,
 }
 
-fn point_receiver(p: vec3<f32>, n: vec3<f32>) -> Receiver {
-    return Receiver(p, false, n, 0.0);
+// `Receiver::at_point` with `Gloss::of` the record's BSDF.
+fn point_receiver(p: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, f: Bsdf) -> Receiver {
+    var rx = Receiver(p, false, n, 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0, 0.0);
+    if f.kind == BSDF_PHONG {
+        rx.mirror = n * (2.0 * dot_glam(n, wo)) - wo;
+        rx.exponent = f.exponent;
+        rx.diffuse = luminance_mean(max(f.diffuse, vec3<f32>(0.0)));
+        rx.specular = luminance_mean(max(f.specular, vec3<f32>(0.0)));
+    } else if f.kind == BSDF_LAMBERT {
+        rx.diffuse = luminance_mean(max(f.diffuse, vec3<f32>(0.0)));
+    }
+    return rx;
 }
 
 fn segment_receiver(o: vec3<f32>, d: vec3<f32>, len: f32) -> Receiver {
-    return Receiver(o, true, d, len);
+    return Receiver(o, true, d, len, vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0, 0.0);
+}
+
+// `Gloss::max_in_cone`.
+fn gloss_max_in_cone(rx: Receiver, axis: vec3<f32>, cos_a: f32, sin_a: f32, inside: bool) -> f32 {
+    let peak = rx.specular * (rx.exponent + 2.0) * 0.5;
+    if peak == 0.0 {
+        return rx.diffuse;
+    }
+    var lobe = 1.0;
+    if !inside {
+        let cos_t = clamp(dot_glam(rx.mirror, axis), -1.0, 1.0);
+        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+        var c = 1.0;
+        if cos_t < cos_a {
+            c = cos_t * cos_a + sin_t * sin_a;
+        }
+        lobe = pow(max(c, 0.0), rx.exponent);
+    }
+    return max(rx.diffuse + peak * lobe, 1e-4 * (rx.diffuse + peak));
 }
 
 fn dot_glam(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+// `light_tree::fade_length`.
+fn fade_length(sigma_t: f32, len: f32) -> f32 {
+    if sigma_t * len > 1e-4 {
+        return -(exp(-sigma_t * len) - 1.0) / sigma_t;
+    }
+    return len;
+}
+
+// `light_tree::fade_density`.
+fn fade_density(sigma_t: f32, len: f32, t: f32) -> f32 {
+    return exp(-sigma_t * t) / fade_length(sigma_t, len);
+}
+
+// `light_tree::free_path`.
+fn free_path(sigma_t: f32, len: f32) -> f32 {
+    if sigma_t * len > 1.0 {
+        return 1.0 / sigma_t;
+    }
+    return len;
+}
+
+// The `prim` of `light_tree::importance`: ∫ (α + β s) / (h² + s²)^(3/2) ds up to s.
+fn cosine_prim(alpha: f32, beta: f32, h: f32, s: f32) -> f32 {
+    let q = sqrt(h * h + s * s);
+    return alpha * s / (h * h * q) - beta / q;
+}
+
+// The `cosine_line` of `light_tree::importance` over [t_a, t_b] within [lo_t, hi_t].
+fn cosine_line(alpha: f32, beta: f32, h: f32, t0: f32, lo_t: f32, hi_t: f32, t_a_in: f32, t_b_in: f32) -> f32 {
+    let t_a = max(t_a_in, lo_t);
+    let t_b = min(t_b_in, hi_t);
+    if t_b > t_a {
+        return max(cosine_prim(alpha, beta, h, t_b - t0) - cosine_prim(alpha, beta, h, t_a - t0), 0.0);
+    }
+    return 0.0;
+}
+
+// `LightTreeNode::segment`: a leaf's segment along its box's diagonal.
+fn leaf_segment_start(node: LightTreeNode) -> vec3<f32> {
+    let bits = node.child >> 28u;
+    return select(node.lo, node.hi, vec3<bool>((bits & 1u) != 0u, (bits & 2u) != 0u, (bits & 4u) != 0u));
+}
+
+fn leaf_segment_end(node: LightTreeNode) -> vec3<f32> {
+    let bits = node.child >> 28u;
+    return select(node.hi, node.lo, vec3<bool>((bits & 1u) != 0u, (bits & 2u) != 0u, (bits & 4u) != 0u));
+}
+
+// The angle a camera segment subtends at y and y's distance to its line, floored at `floor`
+// and r (`seen_from` in `light_tree::importance`).
+fn seen_from(rx: Receiver, y: vec3<f32>, floor: f32, r: f32) -> vec2<f32> {
+    let v = y - rx.a;
+    let tc = dot_glam(v, rx.b);
+    let h = max(max(sqrt(max(dot_glam(v, v) - tc * tc, 0.0)), floor), r);
+    return vec2<f32>(max(atan((rx.len - tc) / h) + atan(tc / h), 0.0), h);
 }
 
 // `light_tree::importance`.
@@ -45,37 +141,102 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
     let half = 0.5 * (node.hi - node.lo);
     let rb = length_glam(half);
     let r = max(r_in, 1e-12);
+    let is_segment = (node.child & LIGHT_LEAF) != 0u && any(node.lo != node.hi);
+    let a = leaf_segment_start(node);
+    let b = leaf_segment_end(node);
     if !rx.is_segment {
         let p = rx.a;
         let n = rx.b;
         let top = dot_glam(n, c - p) + dot_glam(abs(n), half) + r;
-        if top < 0.0 {
+        if top < 0.0 && node.sigma_t == 0.0 {
             return 0.0;
         }
-        let q = clamp(p, node.lo, node.hi);
-        let qp = q - p;
-        let d2 = max(dot_glam(qp, qp), r * r);
         let to = c - p;
         let dc = length_glam(to);
         let reach = rb + r;
+        let inside = dc <= reach;
+        var axis = n;
+        var sin_a = 1.0;
+        if !inside {
+            axis = to / dc;
+            sin_a = reach / dc;
+        }
+        let cos_a = sqrt(max(1.0 - sin_a * sin_a, 0.0));
         var cos_bound = 1.0;
-        if dc > reach {
-            let cos_t = clamp(dot_glam(n, to) / dc, -1.0, 1.0);
+        if !inside {
+            let cos_t = clamp(dot_glam(n, axis), -1.0, 1.0);
             let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-            let sin_a = reach / dc;
-            let cos_a = sqrt(max(1.0 - sin_a * sin_a, 0.0));
             if cos_t < cos_a {
                 cos_bound = cos_t * cos_a + sin_t * sin_a;
             }
         }
-        return node.weight * max(cos_bound, 1e-3) / d2;
+        let f = gloss_max_in_cone(rx, axis, cos_a, sin_a, inside);
+        if is_segment {
+            let len = length_glam(b - a);
+            let dir = (b - a) / len;
+            let v = p - a;
+            let t0 = dot_glam(v, dir);
+            let d2 = dot_glam(v, v);
+            let h = max(sqrt(max(d2 - t0 * t0, 0.0)), r);
+            let e0 = dot_glam(n, a - p) + r;
+            let beta = dot_glam(n, dir);
+            var lo_t = 0.0;
+            var hi_t = len;
+            if beta > 0.0 {
+                lo_t = max(lo_t, -e0 / beta);
+            } else if beta < 0.0 {
+                hi_t = min(hi_t, -e0 / beta);
+            } else if e0 < 0.0 {
+                hi_t = lo_t;
+            }
+            let alpha = e0 + beta * t0;
+            let closest = fade_density(node.sigma_t, len, clamp(t0, 0.0, len)) * cosine_line(alpha, beta, h, t0, lo_t, hi_t, 0.0, len);
+            let first = free_path(node.sigma_t, len);
+            let start = fade_density(node.sigma_t, len, first) * cosine_line(alpha, beta, h, t0, lo_t, hi_t, 0.0, first);
+            let floor = 1e-3 / max(d2, r * r);
+            return node.weight * f * max(max(closest, start), floor);
+        }
+        let cp = c - p;
+        let falloff = 1.0 / max(max(dot_glam(cp, cp), rb * rb), r * r);
+        return node.weight * f * max(cos_bound, 1e-3) * falloff;
     }
-    let v = c - rx.a;
-    let tc = dot_glam(v, rx.b);
-    let h2 = max(dot_glam(v, v) - tc * tc, 0.0);
-    let h = max(sqrt(h2) - rb, r);
-    let angle = atan((rx.len - tc) / h) + atan(tc / h);
-    return node.weight * max(angle, 0.0) / h;
+    if is_segment {
+        let l = length_glam(b - a);
+        let dir = (b - a) / l;
+        let w = a - rx.a;
+        let d = rx.b;
+        let cos = dot_glam(dir, d);
+        let sin2 = max(1.0 - cos * cos, 0.0);
+        var u0: f32;
+        if sin2 > 1e-6 {
+            u0 = (cos * dot_glam(d, w) - dot_glam(dir, w)) / sin2;
+        } else {
+            u0 = dot_glam(rx.a + d * (0.5 * rx.len) - a, dir);
+        }
+        u0 = clamp(u0, 0.0, l);
+        let seen = seen_from(rx, a + dir * u0, 0.0, r);
+        let s = max(sqrt(sin2), 1e-3);
+        let along = (asinh((l - u0) * s / seen.y) + asinh(u0 * s / seen.y)) / s;
+        let closest = fade_density(node.sigma_t, l, u0) * seen.x * along;
+        let first = free_path(node.sigma_t, l);
+        let seen_a = seen_from(rx, a, 0.0, r);
+        let start = fade_density(node.sigma_t, l, first) * seen_a.x * asinh(first * s / seen_a.y) / s;
+        return node.weight * max(closest, start);
+    }
+    let seen = seen_from(rx, c, rb, r);
+    return node.weight * seen.x / seen.y;
+}
+
+// `light_tree::DEFENSIVE_SHARE`.
+const DEFENSIVE_SHARE: f32 = 0.1;
+
+// `light_tree::left_probability`.
+fn left_probability(a: f32, b: f32, left: LightTreeNode, right: LightTreeNode) -> f32 {
+    let p = a / (a + b);
+    if a > 0.0 && b > 0.0 {
+        return (1.0 - DEFENSIVE_SHARE) * p + DEFENSIVE_SHARE * (left.weight / (left.weight + right.weight));
+    }
+    return p;
 }
 
 // A drawn light: its index and probability (`found` false when no light can reach).
@@ -85,8 +246,9 @@ struct Pick {
     found: bool,
 }
 
-// `LightTree::sample` on the tree whose root is at `base` in `light_tree`.
-fn tree_sample(base: u32, rx: Receiver, r: f32, u_in: f32) -> Pick {
+// `LightTree::sample` on the tree whose root is at `base` in `light_tree`: the root's choice
+// by `u_in`, deeper ones by fresh numbers from `s`.
+fn tree_sample(base: u32, rx: Receiver, r: f32, u_in: f32, s: ptr<function, Sampler>) -> Pick {
     var at = 0u;
     var pmf = 1.0;
     var u = u_in;
@@ -94,34 +256,38 @@ fn tree_sample(base: u32, rx: Receiver, r: f32, u_in: f32) -> Pick {
     for (var level = 0u; level < 64u; level++) {
         let node = light_tree[base + at];
         if (node.child & LIGHT_LEAF) != 0u {
-            return Pick(node.child & ~LIGHT_LEAF, pmf, true);
+            return Pick(node.child & LIGHT_MASK, pmf, true);
         }
         let c = node.child;
         let a = light_importance(light_tree[base + c], rx, r);
         let b = light_importance(light_tree[base + c + 1u], rx, r);
-        let total = a + b;
-        if !(total > 0.0) {
+        if !(a + b > 0.0) {
             return Pick(0u, 0.0, false);
         }
-        let p_left = a / total;
+        let p_left = left_probability(a, b, light_tree[base + c], light_tree[base + c + 1u]);
         if u < p_left {
-            u = min(u / p_left, ONE_BELOW);
             pmf *= p_left;
             at = c;
         } else {
-            let p_right = 1.0 - p_left;
-            u = min((u - p_left) / p_right, ONE_BELOW);
-            pmf *= p_right;
+            pmf *= 1.0 - p_left;
             at = c + 1u;
         }
+        u = next_1d(s);
     }
     return Pick(0u, 0.0, false);
 }
 
-// Slot `slot` of a record's stratified draws: `LightTree::sample_k`.
-fn tree_sample_slot(base: u32, rx: Receiver, slot: u32, xi: f32) -> Pick {
+// Slot `slot` of record `record`'s draws for kernel `kind` (`LightTree::sample_k`): the root
+// choice by the stratified number (slot + ξ)/K, the rest from the slot's descent stream.
+fn tree_sample_slot(base: u32, rx: Receiver, kind: u32, record: u32, slot: u32, xi: f32) -> Pick {
     let u = min((f32(slot) + xi) / f32(params.light_samples), ONE_BELOW);
-    return tree_sample(base, rx, sqrt(max(params.radius2, 0.0)), u);
+    var s = selection_sampler(kind, record, slot);
+    return tree_sample(base, rx, sqrt(max(params.radius2, 0.0)), u, &s);
+}
+
+// `streams::selection_sampler`.
+fn selection_sampler(kind: u32, record: u32, slot: u32) -> Sampler {
+    return sampler_new(pcg_hash(params.pair_seed ^ 0x27d4eb2fu) + slot, params.pass_index, (params.record_offset + record) * 4u + kind);
 }
 
 // `streams::selection_number`.

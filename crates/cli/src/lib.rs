@@ -854,6 +854,7 @@ fn compare_cmd(a: &Path, b: &Path, layers: bool) -> Result<()> {
     outln!(out, "relMSE  {:.6e}", m.rel_mse);
     outln!(out, "MAE     {:.6e}", m.mae);
     outln!(out, "max     {:.6e}", m.max_abs);
+    outln!(out, "mean    {:?} vs {:?}", ia.mean(), ib.mean());
     if layers {
         let (la, lb) = (output::read_exr_layers(a)?, output::read_exr_layers(b)?);
         for (name, image) in la.iter().filter(|(n, _)| !n.is_empty()) {
@@ -862,7 +863,14 @@ fn compare_cmd(a: &Path, b: &Path, layers: bool) -> Result<()> {
             };
             let m = compare::compare(image, reference)
                 .map_err(|e| anyhow::anyhow!("layer {name} of {} vs {}: {e}", a.display(), b.display()))?;
-            outln!(out, "{name:<16} RMSE {:.6e}  relMSE {:.6e}", m.rmse, m.rel_mse);
+            outln!(
+                out,
+                "{name:<16} RMSE {:.6e}  relMSE {:.6e}  mean {:?} vs {:?}",
+                m.rmse,
+                m.rel_mse,
+                image.mean(),
+                reference.mean()
+            );
         }
     }
     print_stdout(&out)

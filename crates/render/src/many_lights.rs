@@ -320,6 +320,8 @@ pub fn start_pass(
     let drawn =
         |kind: GatherKind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
     let xi = |kind: GatherKind, i: usize| streams::selection_number(pair_seed, pass, kind, i as u32);
+    let descent =
+        |kind: GatherKind, i: usize| move |slot: u32| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
     let on_cpu = pending.is_none();
 
     // Each gather point against every virtual light: the sum over a light set divided by its
@@ -334,7 +336,7 @@ pub fn start_pass(
             let mut t = [0f64; N];
             if on_cpu {
                 let (lss, lsm) = if let Some(sel) = &selection {
-                    let rx = Receiver::at_point(sp);
+                    let rx = Receiver::at_point(&ts.scene, sp);
                     let (vsl, vbl_k) = (GatherKind::VplToSurface, GatherKind::VrlToSurface);
                     (
                         timed_drawn(
@@ -344,6 +346,7 @@ pub fn start_pass(
                             r,
                             sel.k,
                             xi(vsl, i),
+                            descent(vsl, i),
                             |slot, j| vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, &mut drawn(vsl, i, slot)),
                         ),
                         timed_drawn(
@@ -353,6 +356,7 @@ pub fn start_pass(
                             r,
                             sel.k,
                             xi(vbl_k, i),
+                            descent(vbl_k, i),
                             |slot, j| vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, &mut drawn(vbl_k, i, slot)),
                         ),
                     )
@@ -406,6 +410,7 @@ pub fn start_pass(
                             r,
                             sel.k,
                             xi(vsl, i),
+                            descent(vsl, i),
                             |slot, j| vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, &mut drawn(vsl, i, slot)),
                         ),
                         timed_drawn(
@@ -415,6 +420,7 @@ pub fn start_pass(
                             r,
                             sel.k,
                             xi(vbl_k, i),
+                            descent(vbl_k, i),
                             |slot, j| vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, &mut drawn(vbl_k, i, slot)),
                         ),
                     )
@@ -511,12 +517,13 @@ fn timed_drawn(
     r: f32,
     k: u32,
     xi: f32,
+    stream: impl Fn(u32) -> Sampler,
     f: impl FnMut(u32, usize) -> Rgb,
 ) -> Rgb {
     if tree.is_empty() {
         return Rgb::ZERO;
     }
-    timed(seconds, || tree.estimate(rx, r, k, xi, f))
+    timed(seconds, || tree.estimate(rx, r, k, xi, stream, f))
 }
 
 /// Σ over a light set of each virtual light's contribution, `f(index, light)`, its CPU time

@@ -4,30 +4,35 @@
 //! "Importance Sampling of Many Lights with Adaptive Tree Splitting", HPG 2018, and Vibert et
 //! al., "Scalable Virtual Ray Lights Rendering for Participating Media", EGSR 2019).
 //!
-//! **Nodes.** Every node holds the box of its lights (a VSL's centre, a VBL's segment) and the
-//! sum of their selection weights ([`vsl_weight`], [`vbl_weight`]: the flux a light can
-//! scatter). Children of an interior node sit next to each other; a leaf holds one light.
-//! [`LightTreeNode`] is `Pod` and mirrored in `shaders/lib/light_tree.wgsl`, whose descent is
-//! the twin of [`LightTree::sample`] (the same operations in the same order, so the GPU picks
-//! the same lights as the CPU up to rounding ties).
+//! **Nodes.** Every node holds the box of its lights (a VSL's centre, a VBL's segment clipped
+//! to its first 8 mean free paths) and the sum of their selection weights ([`vsl_weight`],
+//! [`vbl_weight`]: the flux a light can scatter). Children of an interior node sit next to
+//! each other; a leaf holds one light, a segment's leaf also its σt and which diagonal of the
+//! box it runs along. [`LightTreeNode`] is `Pod` and mirrored in `shaders/lib/light_tree.wgsl`,
+//! whose descent is the twin of [`LightTree::sample`] (the same operations in the same order,
+//! so the GPU picks the same lights as the CPU up to rounding ties).
 //!
-//! **Importance of a node for a receiver** ([`importance`]): the node's weight times the
-//! geometric falloff towards it, with every distance floored at the pass's radius R (a VSL or
-//! VBL stops growing closer than R, so the bound is finite where a VRL's is not):
-//! * a shading point p with normal n: 1/max(dist²(p, box), R²) times a bound of the cosine
-//!   over the box (seen as its bounding sphere grown by R); a box that lies wholly below the
-//!   tangent plane, by more than R, cannot light p (the receiver's BSDF reflects only on the
-//!   side of n) and gets 0;
+//! **Importance of a node for a receiver** ([`importance`]): the node's weight times an
+//! estimate of the geometric falloff towards it, every distance floored at the pass's radius R
+//! (a VSL or VBL stops growing closer than R, so nothing divides by zero):
+//! * a shading point p with normal n: 1/max(d², r_b², R²), d the distance to the box centre
+//!   and r_b its half-diagonal (the mean falloff of lights spread over the box, as in Conty
+//!   Estevez & Kulla), times a bound of the cosine over the box seen as its bounding sphere
+//!   grown by R; a box of point lights wholly below the tangent plane, by more than R, cannot
+//!   light p (the receiver's BSDF reflects only on the side of n) and gets 0;
 //! * a camera media segment: ∫ dt / (H² + (t − t_c)²) along it, with t_c the segment parameter
-//!   closest to the box centre and H the centre's distance to the line minus the box's
-//!   half-diagonal, floored at R: the 1/d² falloff integrated over the receiving segment.
+//!   closest to the box centre and H the centre's distance to the line floored at r_b and R;
+//! * a VBL's leaf: its own segment instead of its box, the light's density along it fading
+//!   like e^(−σt t), taken at the point closest to the receiver, times the same integrals along
+//!   the VBL (and for a camera segment along both), or if larger the whole light at its start.
 //!
 //! **Sampling.** A record descends from the root, choosing the left child with probability
-//! a/(a+b) of the children's importances and rescaling its uniform number, so one number picks
-//! one leaf by inversion and the product of the choices is the leaf's probability. K lights
-//! per record use the stratified numbers (k + ξ)/K. The estimate Σ f(light)/(K p(light)) is
-//! unbiased against the all-pairs sum as long as p > 0 wherever f ≠ 0: the importance is
-//! positive except for boxes that provably cannot contribute (below the receiver's horizon),
+//! a/(a+b) of the children's importances; the product of the choices is the leaf's
+//! probability. K lights per record make their root choices with the stratified numbers
+//! (k + ξ)/K, their deeper ones with fresh numbers (see [`LightTree::sample`]). The estimate
+//! Σ f(light)/(K p(light)) is unbiased against the all-pairs sum as long as p > 0 wherever
+//! f ≠ 0: the importance is positive except for boxes of VSLs that provably cannot contribute
+//! (below the receiver's horizon),
 //! and lights with zero weight (no flux, black BSDF, no scattering) contribute exactly nothing.
 //! A node's box can reach above a horizon where none of its children's boxes does; a draw
 //! that ends there finds no light and counts zero, which is exactly what every light under
@@ -37,7 +42,7 @@ use crate::{
     camera_paths::{MediaSegment, ShadingPoint},
     light_paths::{LightSegment, SurfaceVertex},
 };
-use beamlight_scene::{Rgb, Scene, bsdf::Bsdf};
+use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, luminance_mean, rng::Sampler};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 
@@ -50,13 +55,49 @@ pub struct LightTreeNode {
     /// Sum of the node's lights' selection weights (> 0).
     pub weight: f32,
     pub hi: [f32; 3],
-    /// Interior node: index of the left child (the right one follows it). Leaf: [`LEAF`] | the
-    /// light's index in the pass's light array.
+    /// Interior node: index of the left child (the right one follows it). Leaf: [`LEAF`] |
+    /// the segment's diagonal of the box ([`DIAGONAL_SHIFT`]) | the light's index in the pass's
+    /// light array ([`LIGHT_MASK`]).
     pub child: u32,
+    /// A segment light's extinction σt (the densest along it; for an interior node the largest
+    /// of its lights'): its light fades like e^(−σt t) along the segment. 0 for points.
+    pub sigma_t: f32,
+    pub _pad: [u32; 3],
 }
 
 /// `LightTreeNode::child` of a leaf.
 pub const LEAF: u32 = 1 << 31;
+/// A leaf's bits 28–30: which diagonal of its box the light's segment runs along (bit i set:
+/// from `hi` to `lo` along axis i, i.e. the segment's direction is negative there).
+pub const DIAGONAL_SHIFT: u32 = 28;
+/// A leaf's light index (at most 2²⁸ lights per tree).
+pub const LIGHT_MASK: u32 = (1 << DIAGONAL_SHIFT) - 1;
+
+impl LightTreeNode {
+    pub fn is_leaf(&self) -> bool {
+        self.child & LEAF != 0
+    }
+
+    /// A leaf's light index.
+    pub fn light(&self) -> u32 {
+        self.child & LIGHT_MASK
+    }
+
+    /// A leaf's segment (start, end) along its box's diagonal; a point light's box is a point.
+    pub fn segment(&self) -> (Vec3, Vec3) {
+        let bits = self.child >> DIAGONAL_SHIFT;
+        let (lo, hi) = (Vec3::from(self.lo), Vec3::from(self.hi));
+        let pick = |i: usize| {
+            if bits & (1 << i) != 0 {
+                (hi[i], lo[i])
+            } else {
+                (lo[i], hi[i])
+            }
+        };
+        let (x, y, z) = (pick(0), pick(1), pick(2));
+        (Vec3::new(x.0, y.0, z.0), Vec3::new(x.1, y.1, z.1))
+    }
+}
 
 /// The largest f32 below 1: a rescaled uniform number never reaches 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -71,17 +112,95 @@ pub struct LightTree {
 #[derive(Clone, Copy, Debug)]
 pub enum Receiver {
     /// A shading point and its normal on the side light is gathered from.
-    Point { p: Vec3, n: Vec3 },
+    Point { p: Vec3, n: Vec3, gloss: Gloss },
     /// A stretch `o + d t`, t in [0, len], of a camera ray in a medium.
     Segment { o: Vec3, d: Vec3, len: f32 },
 }
 
+/// A shading point's BSDF as the importance sees it: the modified Phong lobe
+/// `diffuse + specular · (n + 2)/2 · cosⁿ(angle to mirror)` (the BSDF times π, mean over
+/// channels); Lambert is `specular` = 0, where the factor is the same for every light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gloss {
+    pub mirror: Vec3,
+    pub exponent: f32,
+    pub diffuse: f32,
+    pub specular: f32,
+}
+
+impl Gloss {
+    pub const LAMBERT: Gloss = Gloss {
+        mirror: Vec3::Z,
+        exponent: 0.0,
+        diffuse: 1.0,
+        specular: 0.0,
+    };
+
+    /// The gloss of BSDF `b` at a point with shading normal `n` seen from `wo`.
+    pub fn of(b: Option<Bsdf>, n: Vec3, wo: Vec3) -> Gloss {
+        match b {
+            Some(Bsdf::Phong {
+                diffuse,
+                specular,
+                exponent,
+            }) => Gloss {
+                mirror: n * (2.0 * n.dot(wo)) - wo,
+                // The CPU's exponent sanitising (as `gather::resolve_bsdf` does for the GPU).
+                exponent: if exponent.is_nan() {
+                    0.0
+                } else {
+                    exponent.clamp(0.0, 1e7)
+                },
+                diffuse: luminance_mean(diffuse.max(Rgb::ZERO)),
+                specular: luminance_mean(specular.max(Rgb::ZERO)),
+            },
+            Some(Bsdf::Lambert { albedo }) => Gloss {
+                diffuse: luminance_mean(albedo.max(Rgb::ZERO)),
+                ..Gloss::LAMBERT
+            },
+            _ => Gloss {
+                diffuse: 0.0,
+                ..Gloss::LAMBERT
+            },
+        }
+    }
+
+    /// The largest factor over directions within the cone of half-angle α (cos α, sin α) about
+    /// `axis`, floored at 10⁻⁴ of the peak so that rounding never zeroes a reachable light
+    /// (0 only for a black BSDF, which gathers nothing).
+    fn max_in_cone(&self, axis: Vec3, cos_a: f32, sin_a: f32, inside: bool) -> f32 {
+        let peak = self.specular * (self.exponent + 2.0) * 0.5;
+        if peak == 0.0 {
+            return self.diffuse;
+        }
+        let lobe = if inside {
+            1.0
+        } else {
+            let cos_t = self.mirror.dot(axis).clamp(-1.0, 1.0);
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let c = if cos_t >= cos_a {
+                1.0
+            } else {
+                cos_t * cos_a + sin_t * sin_a
+            };
+            c.max(0.0).powf(self.exponent)
+        };
+        (self.diffuse + peak * lobe).max(1e-4 * (self.diffuse + peak))
+    }
+}
+
 impl Receiver {
     /// A camera shading point, gathering on the side of its normal (the side of `wo`).
-    pub fn at_point(sp: &ShadingPoint) -> Receiver {
+    pub fn at_point(scene: &Scene, sp: &ShadingPoint) -> Receiver {
+        let n = Vec3::from(sp.normal);
         Receiver::Point {
             p: Vec3::from(sp.pos),
-            n: Vec3::from(sp.normal),
+            n,
+            gloss: Gloss::of(
+                scene.bsdf_at(sp.material, Some(Vec2::from(sp.uv))),
+                n,
+                Vec3::from(sp.wo),
+            ),
         }
     }
 
@@ -114,33 +233,78 @@ pub fn vsl_weight(scene: &Scene, vpl: &SurfaceVertex) -> f32 {
     positive_or_zero(Rgb::from(vpl.power).max_element() * albedo)
 }
 
-/// The selection weight of a VBL: its flux times σs and the length over which it can scatter,
-/// (1 − e^(−σt L))/σt for the medium's densest point (the whole length if σt is 0).
-pub fn vbl_weight(scene: &Scene, vrl: &LightSegment) -> f32 {
+/// The selection weight of a VBL and the σt it fades with: its flux times σs and the length
+/// over which it can scatter, (1 − e^(−σt L))/σt, for the medium's densest point (the whole
+/// length if σt is 0).
+pub fn vbl_weight(scene: &Scene, vrl: &LightSegment) -> (f32, f32) {
     let m = &scene.media[vrl.medium as usize];
     let density = m.density.as_ref().map_or(1.0, |g| g.max_density());
     let sigma_s = m.sigma_s.max_element() * density;
-    let sigma_t = m.sigma_t().max_element() * density;
-    let len = vrl.length;
-    let reach = if sigma_t * len > 1e-4 {
-        -(-sigma_t * len).exp_m1() / sigma_t
+    let sigma_t = positive_or_zero(m.sigma_t().max_element() * density);
+    let reach = fade_length(sigma_t, vrl.length);
+    (
+        positive_or_zero(Rgb::from(vrl.power).max_element() * sigma_s * reach),
+        sigma_t,
+    )
+}
+
+/// ∫₀^L e^(−σt t) dt = (1 − e^(−σt L))/σt, L when σt L is tiny. (Written as the WGSL twin
+/// computes it, without `exp_m1`: a bound needs no more accuracy, and the twins' choices then
+/// part only where `exp` itself rounds differently.)
+fn fade_length(sigma_t: f32, len: f32) -> f32 {
+    if sigma_t * len > 1e-4 {
+        -((-sigma_t * len).exp() - 1.0) / sigma_t
     } else {
         len
-    };
-    positive_or_zero(Rgb::from(vrl.power).max_element() * sigma_s * reach)
+    }
+}
+
+/// Share of every choice in the descent made by the children's weights alone (their flux,
+/// the same for every receiver) rather than by their importance for the receiver.
+const DEFENSIVE_SHARE: f32 = 0.1;
+
+/// The probability of descending into the left child, of importances `a` and `b` (not both
+/// zero) for the receiver: a/(a + b), mixed with the weights' share [`DEFENSIVE_SHARE`] when
+/// both can contribute. The importances are bounds, some loose by orders of magnitude (a wide
+/// box's cosine or glossy lobe at its most favourable direction); without the mixture a
+/// sibling's loose bound can starve a subtree of probability and turn the light it holds into
+/// a rare, bright outlier. A child that cannot contribute (importance 0) keeps probability 0.
+fn left_probability(a: f32, b: f32, left: &LightTreeNode, right: &LightTreeNode) -> f32 {
+    let p = a / (a + b);
+    if a > 0.0 && b > 0.0 {
+        (1.0 - DEFENSIVE_SHARE) * p + DEFENSIVE_SHARE * (left.weight / (left.weight + right.weight))
+    } else {
+        p
+    }
+}
+
+/// The first mean free path of a segment of length `len`, 1/σt (all of it when shorter).
+fn free_path(sigma_t: f32, len: f32) -> f32 {
+    if sigma_t * len > 1.0 { 1.0 / sigma_t } else { len }
+}
+
+/// Mean free paths of a VBL its tree bounds cover (see [`LightTree::over_vbls`]).
+const CLIP_FREE_PATHS: f32 = 8.0;
+
+/// The density of a segment light's scattered light at `t` along it (length `len`, fading
+/// with `sigma_t`), normalised over the segment: e^(−σt t) / ∫₀^L e^(−σt u) du.
+fn fade_density(sigma_t: f32, len: f32, t: f32) -> f32 {
+    (-sigma_t * t).exp() / fade_length(sigma_t, len)
+}
+
+/// A light as the tree is built over it: its box (a segment runs along a diagonal, given by
+/// the index's bits [`DIAGONAL_SHIFT`]), selection weight, σt and index.
+#[derive(Clone, Copy, Debug)]
+pub struct TreeLight {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    pub weight: f32,
+    pub sigma_t: f32,
+    pub index: u32,
 }
 
 fn positive_or_zero(x: f32) -> f32 {
     if x > 0.0 && x.is_finite() { x } else { 0.0 }
-}
-
-/// A light before the build: its box, weight and index.
-#[derive(Clone, Copy)]
-struct Item {
-    lo: Vec3,
-    hi: Vec3,
-    weight: f32,
-    index: u32,
 }
 
 impl LightTree {
@@ -148,27 +312,51 @@ impl LightTree {
     pub fn over_vsls(scene: &Scene, vpls: &[SurfaceVertex]) -> LightTree {
         Self::build(vpls.iter().enumerate().map(|(i, v)| {
             let p = Vec3::from(v.pos);
-            (p, p, vsl_weight(scene, v), i as u32)
+            TreeLight {
+                lo: p,
+                hi: p,
+                weight: vsl_weight(scene, v),
+                sigma_t: 0.0,
+                index: i as u32,
+            }
         }))
     }
 
     /// The tree over a pass's VBLs (VRLs inflated by the pass's radius).
     pub fn over_vbls(scene: &Scene, vrls: &[LightSegment]) -> LightTree {
         Self::build(vrls.iter().enumerate().map(|(i, v)| {
-            let (a, b) = (
-                Vec3::from(v.origin),
-                Vec3::from(v.origin) + Vec3::from(v.dir) * v.length,
-            );
-            (a.min(b), a.max(b), vbl_weight(scene, v), i as u32)
+            let (weight, sigma_t) = vbl_weight(scene, v);
+            // The bounds cover the first CLIP_FREE_PATHS mean free paths (beyond, less than
+            // e^(−8) of the light is left): a long segment's box would otherwise hold most of
+            // the scene and make every node around it look close to every receiver.
+            let reach = if sigma_t > 0.0 {
+                v.length.min(CLIP_FREE_PATHS / sigma_t)
+            } else {
+                v.length
+            };
+            let (a, b) = (Vec3::from(v.origin), Vec3::from(v.origin) + Vec3::from(v.dir) * reach);
+            let diagonal = (a.x > b.x) as u32 | ((a.y > b.y) as u32) << 1 | ((a.z > b.z) as u32) << 2;
+            TreeLight {
+                lo: a.min(b),
+                hi: a.max(b),
+                weight,
+                sigma_t,
+                index: i as u32 | diagonal << DIAGONAL_SHIFT,
+            }
         }))
     }
 
-    /// Builds a tree over lights given as (box lo, box hi, weight, index); lights whose weight
-    /// is not positive or whose box is not finite are left out (they contribute nothing).
-    pub fn build(lights: impl Iterator<Item = (Vec3, Vec3, f32, u32)>) -> LightTree {
-        let mut items: Vec<Item> = lights
-            .filter(|(lo, hi, w, _)| *w > 0.0 && w.is_finite() && lo.is_finite() && hi.is_finite())
-            .map(|(lo, hi, weight, index)| Item { lo, hi, weight, index })
+    /// Builds a tree over `lights`; lights whose weight is not positive or whose box is not
+    /// finite are left out (they contribute nothing).
+    pub fn build(lights: impl Iterator<Item = TreeLight>) -> LightTree {
+        let mut items: Vec<TreeLight> = lights
+            .inspect(|l| {
+                assert!(
+                    l.index & !(LIGHT_MASK | 7 << DIAGONAL_SHIFT) == 0,
+                    "more than 2^28 lights"
+                )
+            })
+            .filter(|l| l.weight > 0.0 && l.weight.is_finite() && l.lo.is_finite() && l.hi.is_finite())
             .collect();
         let mut tree = LightTree {
             nodes: Vec::with_capacity(2 * items.len()),
@@ -182,7 +370,7 @@ impl LightTree {
 
     /// Writes node `at` over `items`: a leaf for one light, else the two halves of a median
     /// split of the centres along the widest axis of their bounds.
-    fn fill(&mut self, at: usize, items: &mut [Item]) {
+    fn fill(&mut self, at: usize, items: &mut [TreeLight]) {
         let (mut lo, mut hi, mut weight) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0.0f32);
         let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for it in items.iter() {
@@ -199,6 +387,8 @@ impl LightTree {
                 weight,
                 hi: hi.into(),
                 child: LEAF | items[0].index,
+                sigma_t: items[0].sigma_t,
+                _pad: [0; 3],
             };
             return;
         }
@@ -223,6 +413,10 @@ impl LightTree {
             weight,
             hi: hi.into(),
             child: left as u32,
+            // Positive in a tree of segment lights: no horizon culling there (their bounds are
+            // clipped, see `importance`).
+            sigma_t: items.iter().map(|l| l.sigma_t).fold(0.0, f32::max),
+            _pad: [0; 3],
         };
         let (a, b) = items.split_at_mut(mid);
         self.fill(left, a);
@@ -233,56 +427,77 @@ impl LightTree {
         self.nodes.is_empty()
     }
 
-    /// Draws one light for the uniform number `u` in [0, 1): its index and probability, or
-    /// `None` when no light in the tree can reach the receiver.
-    pub fn sample(&self, rx: &Receiver, r: f32, mut u: f32) -> Option<(u32, f32)> {
+    /// Draws one light: the root's choice by the uniform number `u` in [0, 1), every deeper
+    /// choice by a fresh number from `s`. Returns the light's index and probability, or `None`
+    /// when the descent ends at a node none of whose lights can reach the receiver.
+    ///
+    /// Fresh numbers rather than `u` rescaled from level to level: a rescaled number carries
+    /// the rounding of every probability above it, amplified by 1/p at each level, so the
+    /// GPU's descent (whose `atan`, fused multiply-adds and divisions round differently)
+    /// would part from the CPU's in a visible share of records; with fresh numbers a choice
+    /// differs only when its number falls within rounding of the branch probability.
+    pub fn sample(&self, rx: &Receiver, r: f32, mut u: f32, s: &mut Sampler) -> Option<(u32, f32)> {
         let mut at = 0usize;
         let mut pmf = 1.0f32;
         loop {
             let node = self.nodes.get(at)?;
-            if node.child & LEAF != 0 {
-                return Some((node.child & !LEAF, pmf));
+            if node.is_leaf() {
+                return Some((node.light(), pmf));
             }
             let c = node.child as usize;
             let a = importance(&self.nodes[c], rx, r);
             let b = importance(&self.nodes[c + 1], rx, r);
-            let total = a + b;
-            if !(total > 0.0) {
+            if !(a + b > 0.0) {
                 return None;
             }
-            let p_left = a / total;
+            let p_left = left_probability(a, b, &self.nodes[c], &self.nodes[c + 1]);
             if u < p_left {
-                u = (u / p_left).min(ONE_BELOW);
                 pmf *= p_left;
                 at = c;
             } else {
-                let p_right = 1.0 - p_left;
-                u = ((u - p_left) / p_right).min(ONE_BELOW);
-                pmf *= p_right;
+                pmf *= 1.0 - p_left;
                 at = c + 1;
             }
+            u = s.next_1d();
         }
     }
 
-    /// `k` lights for one record, drawn with the stratified numbers (slot + ξ)/k.
-    pub fn sample_k(&self, rx: &Receiver, r: f32, k: u32, xi: f32) -> impl Iterator<Item = Pick> + '_ {
+    /// `k` lights for one record: slot k's root choice by the stratified number (k + ξ)/k,
+    /// its deeper choices from the stream `stream(slot)`.
+    pub fn sample_k<'a>(
+        &'a self,
+        rx: &Receiver,
+        r: f32,
+        k: u32,
+        xi: f32,
+        stream: impl Fn(u32) -> Sampler + 'a,
+    ) -> impl Iterator<Item = Pick> + 'a {
         let rx = *rx;
         (0..k).filter_map(move |slot| {
             let u = ((slot as f32 + xi) / k as f32).min(ONE_BELOW);
-            self.sample(&rx, r, u).map(|(light, pmf)| Pick { light, pmf, slot })
+            self.sample(&rx, r, u, &mut stream(slot))
+                .map(|(light, pmf)| Pick { light, pmf, slot })
         })
     }
 
     /// The light-selection estimate of the sum over the tree's lights of `f(slot, light)`:
-    /// `k` lights drawn for the receiver (strata (slot + ξ)/k), each contribution over its
+    /// `k` lights drawn for the receiver ([`LightTree::sample_k`]), each contribution over its
     /// probability, averaged. Unbiased for the all-pairs sum when `f` is zero for every
     /// light the tree cannot draw (see the module documentation).
-    pub fn estimate(&self, rx: &Receiver, r: f32, k: u32, xi: f32, mut f: impl FnMut(u32, usize) -> Rgb) -> Rgb {
+    pub fn estimate(
+        &self,
+        rx: &Receiver,
+        r: f32,
+        k: u32,
+        xi: f32,
+        stream: impl Fn(u32) -> Sampler,
+        mut f: impl FnMut(u32, usize) -> Rgb,
+    ) -> Rgb {
         if self.nodes.is_empty() {
             return Rgb::ZERO;
         }
         let sum: Rgb = self
-            .sample_k(rx, r, k, xi)
+            .sample_k(rx, r, k, xi, stream)
             .map(|p| f(p.slot, p.light as usize) / p.pmf)
             .sum();
         sum / k as f32
@@ -298,18 +513,17 @@ impl LightTree {
         let mut stack = vec![(0usize, 1.0f64)];
         while let Some((at, p)) = stack.pop() {
             let node = self.nodes[at];
-            if node.child & LEAF != 0 {
-                out[(node.child & !LEAF) as usize] += p;
+            if node.is_leaf() {
+                out[node.light() as usize] += p;
                 continue;
             }
             let c = node.child as usize;
             let a = importance(&self.nodes[c], rx, r);
             let b = importance(&self.nodes[c + 1], rx, r);
-            let total = a + b;
-            if !(total > 0.0) {
+            if !(a + b > 0.0) {
                 continue;
             }
-            let p_left = a / total;
+            let p_left = left_probability(a, b, &self.nodes[c], &self.nodes[c + 1]);
             stack.push((c, p * p_left as f64));
             stack.push((c + 1, p * (1.0 - p_left) as f64));
         }
@@ -331,8 +545,8 @@ impl LightTree {
             if !(n.weight > 0.0 && n.weight.is_finite()) {
                 return Err(format!("node {at} has weight {}", n.weight));
             }
-            if n.child & LEAF != 0 {
-                let light = (n.child & !LEAF) as usize;
+            if n.is_leaf() {
+                let light = n.light() as usize;
                 if light >= lights || std::mem::replace(&mut seen[light], true) {
                     return Err(format!("leaf {at}: light {light} is out of range or seen twice"));
                 }
@@ -371,45 +585,141 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
     let half = 0.5 * (hi - lo);
     let rb = half.length();
     let r = r.max(1e-12);
+    // A leaf's segment light (a VBL): its own geometry instead of its box's.
+    let segment = (node.is_leaf() && lo != hi).then(|| node.segment());
     match *rx {
-        Receiver::Point { p, n } => {
+        Receiver::Point { p, n, gloss } => {
             // Highest point of the box (grown by R) above the tangent plane.
             let top = n.dot(c - p) + n.abs().dot(half) + r;
-            if top < 0.0 {
+            // Segment lights' bounds leave out their faint far ends ([`CLIP_FREE_PATHS`]),
+            // which may still reach above the horizon: only point lights are culled.
+            if top < 0.0 && node.sigma_t == 0.0 {
                 return 0.0;
             }
-            let q = p.clamp(lo, hi);
-            let d2 = (q - p).length_squared().max(r * r);
-            // The cosine bound over the box's bounding sphere grown by R.
+            // The cosine and the BSDF bounded over the cone of the box's bounding sphere
+            // grown by R (all directions when p is inside it).
             let to = c - p;
             let dc = to.length();
             let reach = rb + r;
-            let cos_bound = if dc <= reach {
+            let inside = dc <= reach;
+            let axis = if inside { n } else { to / dc };
+            let sin_a = if inside { 1.0 } else { reach / dc };
+            let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
+            let cos_bound = if inside {
                 1.0
             } else {
-                let cos_t = (n.dot(to) / dc).clamp(-1.0, 1.0);
+                let cos_t = n.dot(axis).clamp(-1.0, 1.0);
                 let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                let sin_a = reach / dc;
-                let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
-                // cos(θ − α) when θ > α, else 1 (the normal points into the sphere).
+                // cos(θ − α) when θ > α, else 1 (the normal points into the cone).
                 if cos_t >= cos_a {
                     1.0
                 } else {
                     cos_t * cos_a + sin_t * sin_a
                 }
             };
-            // The box reaches above the horizon (top ≥ 0): keep a floor so that rounding in
-            // the bound never gives such a box a zero probability.
-            node.weight * cos_bound.max(1e-3) / d2
+            let f = gloss.max_in_cone(axis, cos_a, sin_a, inside);
+            match segment {
+                // A segment: its light's density along it at the point closest to p times
+                // ∫ cos θ dt / (H² + (t − t₀)²) over the part above the horizon (H the
+                // distance floored at R; the cosine's height lifted by R, as the sphere
+                // reaches that far above its centre), or if larger all of it at the start.
+                // Segments start on surfaces, often the receiver's own: their light arrives at
+                // grazing angles there, which the box's cosine bound would not see.
+                Some((a, b)) => {
+                    let len = (b - a).length();
+                    let dir = (b - a) / len;
+                    let v = p - a;
+                    let t0 = v.dot(dir);
+                    let d2 = v.length_squared();
+                    let h = (d2 - t0 * t0).max(0.0).sqrt().max(r);
+                    // The height above the tangent plane plus R: e(t) = e0 + β t.
+                    let (e0, beta) = (n.dot(a - p) + r, n.dot(dir));
+                    let (mut lo_t, mut hi_t) = (0.0f32, len);
+                    if beta > 0.0 {
+                        lo_t = lo_t.max(-e0 / beta);
+                    } else if beta < 0.0 {
+                        hi_t = hi_t.min(-e0 / beta);
+                    } else if e0 < 0.0 {
+                        hi_t = lo_t;
+                    }
+                    // With s = t − t₀: ∫ (α + β s) / (H² + s²)^(3/2) ds, α = e(t₀), over the
+                    // part of [t_a, t_b] above the horizon.
+                    let alpha = e0 + beta * t0;
+                    let prim = |s: f32| {
+                        let q = (h * h + s * s).sqrt();
+                        alpha * s / (h * h * q) - beta / q
+                    };
+                    let cosine_line = |t_a: f32, t_b: f32| {
+                        let (t_a, t_b) = (t_a.max(lo_t), t_b.min(hi_t));
+                        if t_b > t_a {
+                            (prim(t_b - t0) - prim(t_a - t0)).max(0.0)
+                        } else {
+                            0.0
+                        }
+                    };
+                    // The density at the closest point over the whole segment, or the least
+                    // density of its first mean free path over that stretch (where a fast
+                    // fading segment's light is).
+                    let closest = fade_density(node.sigma_t, len, t0.clamp(0.0, len)) * cosine_line(0.0, len);
+                    let first = free_path(node.sigma_t, len);
+                    let start = fade_density(node.sigma_t, len, first) * cosine_line(0.0, first);
+                    // A floor for rounding (and for the faint end beyond the clipped bounds).
+                    let floor = 1e-3 / d2.max(r * r);
+                    node.weight * f * closest.max(start).max(floor)
+                }
+                None => {
+                    let falloff = 1.0 / (c - p).length_squared().max(rb * rb).max(r * r);
+                    // The box reaches above the horizon (top ≥ 0): keep a floor so that
+                    // rounding in the bound never gives such a box a zero probability.
+                    node.weight * f * cos_bound.max(1e-3) * falloff
+                }
+            }
         }
         Receiver::Segment { o, d, len } => {
-            let v = c - o;
-            let tc = v.dot(d);
-            let h2 = (v.length_squared() - tc * tc).max(0.0);
-            let h = (h2.sqrt() - rb).max(r);
-            // ∫₀^len dt / (h² + (t − tc)²) = (atan((len − tc)/h) + atan(tc/h)) / h.
-            let angle = ((len - tc) / h).atan() + (tc / h).atan();
-            node.weight * angle.max(0.0) / h
+            // ∫₀^len dt / (h² + (t − tc)²) = (atan((len − tc)/h) + atan(tc/h)) / h along the
+            // camera segment, seen from the light's point `y` at distance h from its line.
+            let seen_from = |y: Vec3, floor: f32| {
+                let v = y - o;
+                let tc = v.dot(d);
+                let h = (v.length_squared() - tc * tc).max(0.0).sqrt().max(floor).max(r);
+                ((((len - tc) / h).atan() + (tc / h).atan()).max(0.0), h)
+            };
+            match segment {
+                // A segment light: ∫ ρ(u) du ∫ dt / d², ρ its light's density along it, with
+                // ρ and the angle the camera segment subtends taken at the light's point
+                // closest to the camera line and the distance growing like
+                // √(H² + (u − u₀)² sin²θ) away from it: ρ(u₀) · angle ·
+                // [asinh((L − u₀) s/H) + asinh(u₀ s/H)] / s, s = sin θ; or if larger, all of
+                // the light at the start.
+                Some((a, b)) => {
+                    let l = (b - a).length();
+                    let dir = (b - a) / l;
+                    let w = a - o;
+                    let cos = dir.dot(d);
+                    let sin2 = (1.0 - cos * cos).max(0.0);
+                    let u0 = if sin2 > 1e-6 {
+                        (cos * d.dot(w) - dir.dot(w)) / sin2
+                    } else {
+                        // Parallel: the point beside the camera segment's middle.
+                        (o + d * (0.5 * len) - a).dot(dir)
+                    }
+                    .clamp(0.0, l);
+                    let (angle, h) = seen_from(a + dir * u0, 0.0);
+                    let s = sin2.sqrt().max(1e-3);
+                    let along = (((l - u0) * s / h).asinh() + (u0 * s / h).asinh()) / s;
+                    let closest = fade_density(node.sigma_t, l, u0) * angle * along;
+                    // The least density of the first mean free path over that stretch, seen
+                    // from its start (where a fast fading segment's light is).
+                    let first = free_path(node.sigma_t, l);
+                    let (angle_a, h_a) = seen_from(a, 0.0);
+                    let start = fade_density(node.sigma_t, l, first) * angle_a * (first * s / h_a).asinh() / s;
+                    node.weight * closest.max(start)
+                }
+                None => {
+                    let (angle, h) = seen_from(c, rb);
+                    node.weight * angle / h
+                }
+            }
         }
     }
 }
@@ -426,10 +736,12 @@ mod tests {
             weight: 1.0,
             hi: [1.0, y + 0.1, 1.0],
             child: LEAF,
+            ..Default::default()
         };
         let rx = Receiver::Point {
             p: Vec3::ZERO,
             n: Vec3::Y,
+            gloss: Gloss::LAMBERT,
         };
         let r = 0.05;
         assert_eq!(importance(&node(-0.2), &rx, r), 0.0);

@@ -51,3 +51,13 @@ pub fn selection_number(pair_seed: u32, pass: u32, kind: GatherKind, record: u32
     )
     .next_1d()
 }
+
+/// With light selection: the stream of the tree descent of the `slot`-th light gather record
+/// `record` draws (its choices below the root).
+pub fn selection_sampler(pair_seed: u32, pass: u32, kind: GatherKind, record: u32, slot: u32) -> Sampler {
+    Sampler::new(
+        pcg_hash(pair_seed ^ 0x27d4_eb2f).wrapping_add(slot),
+        pass,
+        record.wrapping_mul(4).wrapping_add(kind as u32),
+    )
+}

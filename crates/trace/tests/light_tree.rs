@@ -5,7 +5,7 @@
 mod common;
 
 use beamlight_scene::rng::Sampler;
-use beamlight_trace::light_tree::{LEAF, LightTree, Receiver, importance};
+use beamlight_trace::light_tree::{Gloss, LightTree, Receiver, TreeLight, importance};
 use common::*;
 use glam::Vec3;
 
@@ -31,21 +31,37 @@ fn random_lights(n: u32, seed: u32) -> Vec<(Vec3, Vec3, f32)> {
         .collect()
 }
 
+/// Each light a segment along its box's main diagonal fading with σt = 0.5 (a VBL), or a
+/// point when its box is one (a VSL).
 fn tree_of(lights: &[(Vec3, Vec3, f32)]) -> LightTree {
-    LightTree::build(lights.iter().enumerate().map(|(i, &(lo, hi, w))| (lo, hi, w, i as u32)))
+    LightTree::build(lights.iter().enumerate().map(|(i, &(lo, hi, weight))| TreeLight {
+        lo,
+        hi,
+        weight,
+        sigma_t: 0.5,
+        index: i as u32,
+    }))
 }
 
-/// A floor point looking up (part of the lights below its horizon), a tilted point among the
-/// lights, a camera segment through them and one ending before them.
+/// A floor point looking up (part of the lights below its horizon), a tilted glossy point among
+/// the lights, a camera segment through them and one ending before them.
 fn receivers() -> [Receiver; NUM_TESTS] {
     [
         Receiver::Point {
             p: Vec3::new(0.1, -1.9, 0.2),
             n: Vec3::Y,
+            gloss: Gloss::LAMBERT,
         },
         Receiver::Point {
             p: Vec3::new(0.3, 0.2, -0.1),
             n: Vec3::new(0.3, 0.4, -0.8).normalize(),
+            // A glossy receiver (Phong exponent 80), its mirror direction among the lights.
+            gloss: Gloss {
+                mirror: Vec3::new(-0.5, 0.6, 0.2).normalize(),
+                exponent: 80.0,
+                diffuse: 0.1,
+                specular: 0.8,
+            },
         },
         Receiver::Segment {
             o: Vec3::new(-3.0, 0.5, 0.0),
@@ -79,7 +95,7 @@ fn tree_is_valid_and_pmfs_sum_to_one() {
             // Drawable exactly when the light has weight and its own box can reach the
             // receiver (an ancestor's box holds the leaf's, so it reaches too).
             for (i, (&pi, l)) in p.iter().zip(&lights).enumerate() {
-                let leaf = tree.nodes.iter().find(|nd| nd.child == LEAF | i as u32);
+                let leaf = tree.nodes.iter().find(|nd| nd.is_leaf() && nd.light() == i as u32);
                 let reachable = leaf.is_some_and(|nd| importance(nd, &rx, R) > 0.0);
                 assert_eq!(
                     pi > 0.0,
@@ -110,8 +126,8 @@ fn validate_catches_broken_trees() {
 
 /// Every draw's reported probability is the enumerated one, and the histogram of 10⁶ draws
 /// fits the pmf (cells expecting < 5 pooled, any draw of a zero-pmf light a failure, 0.01 with
-/// a Šidák correction over the receivers). A wrong rescaling of the uniform number between
-/// levels, or a reported probability that is not the product of the branch choices, fails it.
+/// a Šidák correction over the receivers). A branch taken against its probability, or a
+/// reported probability that is not the product of the branch choices, fails it.
 #[test]
 fn selection_pmf_passes_chi_square() {
     const N: usize = 1_000_000;
@@ -125,7 +141,8 @@ fn selection_pmf_passes_chi_square() {
         // Independent draws (the multinomial the test assumes); the gathers stratify them.
         let mut s = Sampler::new(5, t as u32, 0);
         for _ in 0..N {
-            let Some((light, p)) = tree.sample(rx, R, s.next_1d()) else {
+            let u = s.next_1d();
+            let Some((light, p)) = tree.sample(rx, R, u, &mut s) else {
                 observed[lights.len()] += 1.0;
                 continue;
             };
@@ -142,7 +159,8 @@ fn selection_pmf_passes_chi_square() {
 }
 
 /// Stratified picks (what a record draws) report the same probabilities, one per stratum, and
-/// the strata walk the lights in tree order (one number picks a leaf by inversion).
+/// the strata's root choices follow their numbers (the left subtree for the strata below the
+/// root's left probability).
 #[test]
 fn stratified_picks_report_the_enumerated_pmf() {
     let lights = random_lights(120, 2);
@@ -154,18 +172,45 @@ fn stratified_picks_report_the_enumerated_pmf() {
     let mut stack = vec![0usize];
     while let Some(at) = stack.pop() {
         let n = tree.nodes[at];
-        if n.child & LEAF != 0 {
-            order.push(n.child & !LEAF);
+        if n.is_leaf() {
+            order.push(n.light());
         } else {
             stack.extend([n.child as usize + 1, n.child as usize]);
         }
     }
     let rank = |light: u32| order.iter().position(|&l| l == light).unwrap();
-    let picks: Vec<_> = tree.sample_k(&rx, R, 16, 0.37).collect();
+    let picks: Vec<_> = tree
+        .sample_k(&rx, R, 16, 0.37, |slot| Sampler::new(9, 0, slot))
+        .collect();
     assert_eq!(picks.len(), 16);
-    for (k, w) in picks.windows(2).enumerate() {
-        assert_eq!(w[0].slot, k as u32);
-        assert!(rank(w[0].light) <= rank(w[1].light), "strata out of order");
+    // The root's left subtree holds the first `left` leaves in order.
+    let root = tree.nodes[0];
+    let c = root.child as usize;
+    let (a, b) = (
+        importance(&tree.nodes[c], &rx, R),
+        importance(&tree.nodes[c + 1], &rx, R),
+    );
+    let left = {
+        let mut n = 0;
+        let mut stack = vec![c];
+        while let Some(at) = stack.pop() {
+            let nd = tree.nodes[at];
+            if nd.is_leaf() {
+                n += 1;
+            } else {
+                stack.extend([nd.child as usize, nd.child as usize + 1]);
+            }
+        }
+        n
+    };
+    for (k, p) in picks.iter().enumerate() {
+        assert_eq!(p.slot, k as u32);
+        let u = (k as f32 + 0.37) / 16.0;
+        assert_eq!(
+            rank(p.light) < left,
+            u < a / (a + b),
+            "slot {k}: root choice against its number"
+        );
     }
     for p in picks {
         assert!(((p.pmf as f64) / pmf[p.light as usize] - 1.0).abs() < 1e-4);
