@@ -635,6 +635,61 @@ fn pass_ranges_merge_into_the_whole_render() {
     assert!(!p("bad.exr").exists());
 }
 
+/// `merge` reports which pass ranges are present and which are missing: on success, and in the
+/// error that refuses an incomplete set (a gap between parts, or, with `--passes`, a missing
+/// first or last range), which leaves no image behind.
+#[test]
+fn merge_reports_present_and_missing_ranges() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name);
+    for (name, range) in [("a", "0..2"), ("b", "2..4"), ("c", "4..5")] {
+        run_ok(&small_render(&p(&format!("{name}.exr")), &["--passes", range]));
+    }
+    let merge = |parts: &[&str], extra: &[&str]| {
+        let mut args = vec!["merge".to_string()];
+        args.extend(parts.iter().map(|s| p(s).to_str().unwrap().to_string()));
+        args.extend(["-o".to_string(), p("m.exr").to_str().unwrap().to_string()]);
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+            .args(&args)
+            .output()
+            .unwrap();
+        (o.status.code(), stderr(&o))
+    };
+    let (a, c) = (p("a.accum"), p("c.accum"));
+    let (code, e) = merge(&["c.accum", "a.accum"], &[]);
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("error: merge: passes 2..4 are missing: render them with `--passes 2..4`"),
+        "{e}"
+    );
+    let table = format!(
+        "  0..2  present  {}\n  2..4  MISSING\n  4..5  present  {}\n  passes 0..5: 2 of 5 missing (1 range), 2 parts present",
+        a.display(),
+        c.display()
+    );
+    assert!(e.contains(&table), "{e}");
+    assert!(!p("m.exr").exists());
+    // The expected whole range catches a missing first or last range too.
+    let (code, e) = merge(&["b.accum", "c.accum", "a.accum"], &["--passes", "0..7"]);
+    assert_eq!(code, Some(1), "{e}");
+    assert!(e.contains("passes 5..7 are missing"), "{e}");
+    assert!(e.contains("  5..7  MISSING"), "{e}");
+    let (code, e) = merge(&["b.accum", "c.accum"], &["--passes", "5"]);
+    assert_eq!(code, Some(1), "{e}");
+    assert!(e.contains("passes 0..2 are missing"), "{e}");
+    assert!(!p("m.exr").exists());
+    // Complete: the report lists every part and nothing missing.
+    let (code, e) = merge(&["b.accum", "c.accum", "a.accum"], &["--passes", "0..5"]);
+    assert_eq!(code, Some(0), "{e}");
+    assert!(
+        e.contains(&format!("  2..4  present  {}\n", p("b.accum").display())),
+        "{e}"
+    );
+    assert!(e.contains("passes 0..5: complete, 3 parts"), "{e}");
+    assert!(p("m.exr").exists());
+}
+
 /// A render checkpointed after 2 passes and resumed to 5 equals one run of 5; a checkpoint
 /// from other settings is refused.
 #[test]

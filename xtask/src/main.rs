@@ -15,6 +15,10 @@
 //!   passes): minutes, not part of CI.
 //! * `bench [OPTIONS]`: run time against error for every method and backend and for Mitsuba 3,
 //!   against cached path-traced references (`xtask/src/bench/`, `docs/benchmarks.md`).
+//! * `cluster [--keep]`: split renders on a one-node Slurm cluster started on this machine
+//!   (installs slurm-wlm and munge with apt-get when missing): the README's job-array script,
+//!   merged and compared bit for bit with a one-go render; a cancelled task refused by `merge`
+//!   and resubmitted (`xtask/src/cluster.rs`).
 use anyhow::{Context, Result, bail};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -22,6 +26,7 @@ use std::process::Command;
 mod assets;
 mod bad_scenes;
 mod bench;
+mod cluster;
 mod showcase;
 
 const USAGE: &str = "usage: cargo xtask <command>
@@ -32,7 +37,8 @@ commands:
   ci                    install lavapipe if missing, check generated files, run all tests
   stress                the numerical stress grid (tests/stress.rs) at full size
   fuzz [SECONDS]        fuzz the scene loaders (fuzz/), each target for SECONDS (60)
-  bench [OPTIONS]       run time against error per scene and method (bench --help)";
+  bench [OPTIONS]       run time against error per scene and method (bench --help)
+  cluster [--keep]      split render on a one-node Slurm cluster (apt-installs slurm-wlm, munge)";
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -47,6 +53,9 @@ fn main() -> Result<()> {
     }
     if args.first().is_some_and(|a| a == "bench") {
         return bench::main(&root(), &args[1..]);
+    }
+    if args.first().is_some_and(|a| a == "cluster") {
+        return cluster::main(&root(), &args[1..]);
     }
     let check = args.iter().skip(1).any(|a| a == "--check");
     if let Some(extra) = args.iter().skip(1).find(|a| *a != "--check") {

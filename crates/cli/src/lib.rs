@@ -83,6 +83,10 @@ enum Command {
     Merge {
         /// Accumulator files (`.accum`), in any order.
         parts: Vec<PathBuf>,
+        /// The whole range the parts must cover, `A..B` (or `N` for `0..N`); without it, from
+        /// the first part's start to the last part's end.
+        #[arg(long)]
+        passes: Option<runs::PassRange>,
         /// Output OpenEXR file; its accumulators are written beside it (`.accum`).
         #[arg(short, long)]
         output: PathBuf,
@@ -252,12 +256,12 @@ pub fn main() -> ExitCode {
         } => sheet_cmd(&inputs, &labels, &output, columns, percentile, exposure),
         Command::Merge {
             parts,
+            passes,
             output,
             preview,
             exposure,
-        } => {
-            check_output_path(&output, "exr").and_then(|()| runs::merge(&parts, &output, preview.as_deref(), exposure))
-        }
+        } => check_output_path(&output, "exr")
+            .and_then(|()| runs::merge(&parts, passes, &output, preview.as_deref(), exposure)),
     };
     if let Some(dir) = runtime_dir {
         let _ = std::fs::remove_dir_all(dir);

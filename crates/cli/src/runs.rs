@@ -115,7 +115,16 @@ pub fn interrupted() -> bool {
 }
 
 /// `beamlight merge`: accumulators of adjacent pass ranges → one image (and accumulators).
-pub fn merge(parts: &[PathBuf], output: &Path, preview: Option<&Path>, exposure: f32) -> Result<()> {
+/// `expected` (`merge --passes`) is the range the parts must cover; without it, the span from
+/// the first part's start to the last one's end (a missing last range then goes unnoticed).
+/// Prints which ranges are present and which are missing; an incomplete set is refused.
+pub fn merge(
+    parts: &[PathBuf],
+    expected: Option<PassRange>,
+    output: &Path,
+    preview: Option<&Path>,
+    exposure: f32,
+) -> Result<()> {
     if parts.is_empty() {
         bail!("merge: name the accumulator files of the pass ranges to merge");
     }
@@ -123,7 +132,9 @@ pub fn merge(parts: &[PathBuf], output: &Path, preview: Option<&Path>, exposure:
     for p in parts {
         read.push((p.clone(), Accumulators::read(p)?));
     }
-    let merged = Accumulators::merge(read).map_err(anyhow::Error::msg)?;
+    let expected = expected.map(|r| r.start.unwrap_or(0)..r.end);
+    let (merged, coverage) = Accumulators::merge(read, expected).map_err(|e| anyhow::anyhow!("merge: {e}"))?;
+    eprintln!("pass ranges:\n{coverage}");
     let image = merged.film.image();
     let layers: Vec<(&str, beamlight_render::Image)> = beamlight_trace::components::Component::ALL
         .iter()

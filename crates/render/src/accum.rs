@@ -9,7 +9,10 @@
 //! each film (beauty first, then the components in `Component::ALL` order) its per-pixel sums
 //! and sums of squares as little-endian f64 RGB triples.
 use crate::{Film, output};
-use std::path::{Path, PathBuf};
+use std::{
+    ops::Range,
+    path::{Path, PathBuf},
+};
 
 const MAGIC: &[u8; 8] = b"BLACCUM1";
 
@@ -174,39 +177,181 @@ impl Accumulators {
 
     /// Combines renders of adjacent pass ranges of the same render into one. The parts may come
     /// in any order; they must have the same fingerprint and together cover one range without
-    /// gaps or overlaps.
-    pub fn merge(mut parts: Vec<(PathBuf, Accumulators)>) -> Result<Accumulators, String> {
-        parts.sort_by_key(|(_, a)| a.first_pass);
-        let mut iter = parts.into_iter();
-        let (first_path, mut merged) = iter.next().ok_or("nothing to merge")?;
-        for (path, part) in iter {
-            if part.fingerprint != merged.fingerprint {
+    /// gaps or overlaps: `expected`, when given, or else the span from the first part's first pass
+    /// to the last part's end. Returns the merged accumulators and which ranges were present; the
+    /// error for an incomplete or overlapping set names the missing ranges and lists every part's.
+    pub fn merge(
+        mut parts: Vec<(PathBuf, Accumulators)>,
+        expected: Option<Range<u64>>,
+    ) -> Result<(Accumulators, Coverage), String> {
+        parts.sort_by_key(|(_, a)| (a.first_pass, a.end_pass()));
+        let Some((first_path, first)) = parts.first() else {
+            return Err("nothing to merge".into());
+        };
+        for (path, part) in &parts[1..] {
+            if part.fingerprint != first.fingerprint {
                 return Err(format!(
                     "{} and {} come from different renders (scene or settings differ):\n  {}\n  {}",
                     first_path.display(),
                     path.display(),
-                    merged.fingerprint,
+                    first.fingerprint,
                     part.fingerprint
                 ));
             }
-            if part.components.len() != merged.components.len() {
+            if part.components.len() != first.components.len() {
                 return Err(format!("{}: a different set of component layers", path.display()));
             }
-            if part.first_pass != merged.end_pass() {
-                return Err(format!(
-                    "{} holds passes {}..{}, but the parts before it end at pass {}: ranges must be adjacent, without gaps or overlaps",
-                    path.display(),
-                    part.first_pass,
-                    part.end_pass(),
-                    merged.end_pass()
-                ));
-            }
+        }
+        let ranges: Vec<(PathBuf, Range<u64>)> = parts
+            .iter()
+            .map(|(p, a)| (p.clone(), a.first_pass..a.end_pass()))
+            .collect();
+        let coverage = Coverage::of(&ranges, expected);
+        if let Some(problem) = coverage.problem() {
+            return Err(format!("{problem}; the parts hold:\n{coverage}"));
+        }
+        let mut iter = parts.into_iter();
+        let (_, mut merged) = iter.next().expect("one part at least");
+        for (_, part) in iter {
             merged.film.add_film(&part.film);
             for (a, b) in merged.components.iter_mut().zip(&part.components) {
                 a.add_film(b);
             }
         }
-        Ok(merged)
+        Ok((merged, coverage))
+    }
+}
+
+/// Which passes a set of parts holds, against the range they should cover together.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Coverage {
+    /// The range the parts should cover.
+    pub expected: Range<u64>,
+    /// Each part's file and passes, in pass order.
+    pub present: Vec<(PathBuf, Range<u64>)>,
+    /// Ranges of `expected` that no part holds, in order.
+    pub missing: Vec<Range<u64>>,
+}
+
+impl Coverage {
+    /// The coverage of `expected` (default: from the first part's start to the last part's end)
+    /// by the parts' ranges.
+    pub fn of(parts: &[(PathBuf, Range<u64>)], expected: Option<Range<u64>>) -> Coverage {
+        let mut present = parts.to_vec();
+        present.sort_by_key(|(_, r)| (r.start, r.end));
+        let expected = expected.unwrap_or_else(|| {
+            let start = present.iter().map(|(_, r)| r.start).min().unwrap_or(0);
+            let end = present.iter().map(|(_, r)| r.end).max().unwrap_or(0);
+            start..end
+        });
+        let mut missing = Vec::new();
+        let mut covered = expected.start;
+        for (_, r) in &present {
+            if r.start > covered && covered < expected.end {
+                missing.push(covered..r.start.min(expected.end));
+            }
+            covered = covered.max(r.end);
+        }
+        if covered < expected.end {
+            missing.push(covered..expected.end);
+        }
+        Coverage {
+            expected,
+            present,
+            missing,
+        }
+    }
+
+    /// Why the parts do not merge into exactly `expected`: missing ranges, overlapping parts, or
+    /// parts outside it. `None` when they tile it.
+    pub fn problem(&self) -> Option<String> {
+        let ranges = |rs: &[Range<u64>]| rs.iter().map(|r| format!("{}..{}", r.start, r.end)).collect::<Vec<_>>();
+        let (e, mut problems) = (&self.expected, Vec::new());
+        if !self.missing.is_empty() {
+            let m = ranges(&self.missing).join(", ");
+            let how = match self.missing.as_slice() {
+                [r] => format!("render them with `--passes {}..{}`", r.start, r.end),
+                _ => "render each range with `--passes A..B`".into(),
+            };
+            problems.push(format!(
+                "passes {m} are missing: {how} (same scene and settings) and merge again"
+            ));
+        }
+        // The part reaching furthest so far: a later part starting before its end overlaps it.
+        let mut furthest: Option<&(PathBuf, Range<u64>)> = None;
+        for part in &self.present {
+            if let Some(f) = furthest.filter(|f| part.1.start < f.1.end) {
+                problems.push(format!(
+                    "{} ({}..{}) and {} ({}..{}) overlap: ranges must be adjacent, without gaps or overlaps",
+                    f.0.display(),
+                    f.1.start,
+                    f.1.end,
+                    part.0.display(),
+                    part.1.start,
+                    part.1.end
+                ));
+            }
+            if furthest.is_none_or(|f| part.1.end > f.1.end) {
+                furthest = Some(part);
+            }
+        }
+        for (p, r) in &self.present {
+            if r.start < e.start || r.end > e.end {
+                problems.push(format!(
+                    "{} holds passes {}..{}, outside the merged range {}..{}",
+                    p.display(),
+                    r.start,
+                    r.end,
+                    e.start,
+                    e.end
+                ));
+            }
+        }
+        (!problems.is_empty()).then(|| problems.join("\n"))
+    }
+}
+
+/// One line per range of the expected passes, in pass order: `  0..2  present  a.accum` or
+/// `  2..4  MISSING`, then a total.
+impl std::fmt::Display for Coverage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut rows: Vec<(Range<u64>, Option<&Path>)> = self
+            .present
+            .iter()
+            .map(|(p, r)| (r.clone(), Some(p.as_path())))
+            .collect();
+        rows.extend(self.missing.iter().map(|r| (r.clone(), None)));
+        rows.sort_by_key(|(r, p)| (r.start, p.is_none(), r.end));
+        let width = rows
+            .iter()
+            .map(|(r, _)| format!("{}..{}", r.start, r.end).len())
+            .max()
+            .unwrap_or(0);
+        for (r, p) in rows {
+            let range = format!("{}..{}", r.start, r.end);
+            match p {
+                Some(p) => writeln!(f, "  {range:<width$}  present  {}", p.display())?,
+                None => writeln!(f, "  {range:<width$}  MISSING")?,
+            }
+        }
+        let (e, missing) = (
+            &self.expected,
+            self.missing.iter().map(|r| r.end - r.start).sum::<u64>(),
+        );
+        let parts = self.present.len();
+        if missing == 0 {
+            write!(f, "  passes {}..{}: complete, {parts} parts", e.start, e.end)
+        } else {
+            write!(
+                f,
+                "  passes {}..{}: {missing} of {} missing ({} {}), {parts} parts present",
+                e.start,
+                e.end,
+                e.end - e.start,
+                self.missing.len(),
+                if self.missing.len() == 1 { "range" } else { "ranges" }
+            )
+        }
     }
 }
 
@@ -265,9 +410,37 @@ mod tests {
             film: film(2, 2, passes, first as f32),
             components: Vec::new(),
         };
-        let m = Accumulators::merge(vec![("b".into(), part(3, 2)), ("a".into(), part(0, 3))]).unwrap();
+        let (m, cov) = Accumulators::merge(vec![("b".into(), part(3, 2)), ("a".into(), part(0, 3))], None).unwrap();
         assert_eq!((m.first_pass, m.passes()), (0, 5));
-        let e = Accumulators::merge(vec![("a".into(), part(0, 3)), ("b".into(), part(4, 2))]).unwrap_err();
+        assert_eq!(cov.missing, Vec::<Range<u64>>::new());
+        assert_eq!(
+            cov.to_string(),
+            "  0..3  present  a\n  3..5  present  b\n  passes 0..5: complete, 2 parts"
+        );
+        let e = Accumulators::merge(vec![("a".into(), part(0, 3)), ("b".into(), part(2, 2))], None).unwrap_err();
         assert!(e.contains("adjacent"), "{e}");
+        let e = Accumulators::merge(vec![("a".into(), part(0, 3)), ("b".into(), part(4, 2))], None).unwrap_err();
+        assert!(
+            e.starts_with("passes 3..4 are missing: render them with `--passes 3..4`"),
+            "{e}"
+        );
+        assert!(e.contains("  3..4  MISSING\n"), "{e}");
+        // Against an expected range, missing ends count too; parts outside it are refused.
+        let e = Accumulators::merge(vec![("a".into(), part(2, 3))], Some(0..8)).unwrap_err();
+        assert!(e.starts_with("passes 0..2, 5..8 are missing"), "{e}");
+        let e = Accumulators::merge(vec![("a".into(), part(0, 3))], Some(0..2)).unwrap_err();
+        assert!(e.contains("outside the merged range 0..2"), "{e}");
+        assert!(Accumulators::merge(vec![("a".into(), part(0, 3))], Some(0..3)).is_ok());
+    }
+
+    #[test]
+    fn coverage_lists_present_and_missing_ranges_in_order() {
+        let parts: Vec<(PathBuf, Range<u64>)> = vec![("p3".into(), 6..8), ("p0".into(), 0..2), ("p1".into(), 2..4)];
+        let cov = Coverage::of(&parts, Some(0..10));
+        assert_eq!(cov.missing, vec![4..6, 8..10]);
+        assert_eq!(
+            cov.to_string(),
+            "  0..2   present  p0\n  2..4   present  p1\n  4..6   MISSING\n  6..8   present  p3\n  8..10  MISSING\n  passes 0..10: 4 of 10 missing (2 ranges), 3 parts present"
+        );
     }
 }
