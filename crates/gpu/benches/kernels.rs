@@ -14,6 +14,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
+    light_tree::{LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
@@ -177,6 +178,84 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
             g.kernel_seconds[k as usize],
             cpu,
         );
+        if GatherKernel::BEAMS.contains(&k) {
+            report(
+                &format!("  records, all {} lights", inputs.lights(k)),
+                inputs.records(k) as f64,
+                g.kernel_seconds[k as usize],
+                cpu,
+            );
+        }
+    }
+    selected_gathers(ts, b, &inputs);
+}
+
+/// The `vbl` kernels with light selection (the default 4 lights drawn per record from the
+/// pass's light trees): gather records per second, GPU against the CPU twins.
+fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
+    let samples = 4;
+    let vsl_tree = LightTree::over_vsls(&ts.scene, all.vpls);
+    let vbl_tree = LightTree::over_vbls(&ts.scene, all.vrls);
+    let inputs = GatherInputs {
+        light_samples: samples,
+        vsl_tree: &vsl_tree.nodes,
+        vbl_tree: &vbl_tree.nodes,
+        ..*all
+    };
+    let mut run = [false; beamlight_gpu::gather::KERNELS];
+    for k in GatherKernel::BEAMS {
+        run[k as usize] = true;
+    }
+    b.gathers.run(&b.gpu, &b.scene, &ts.scene, &inputs, run).unwrap(); // warm-up
+    let g = b.gathers.run(&b.gpu, &b.scene, &ts.scene, &inputs, run).unwrap();
+    let (pair_seed, pass, radius2, vbl) = (all.pair_seed, all.pass, all.radius2, all.vbl);
+    let r = radius2.sqrt();
+    let (sps, segs) = (all.shading_points, all.media_segments);
+    let (vpls, vrls) = (all.vpls, all.vrls);
+    for k in GatherKernel::BEAMS {
+        let kind = match k {
+            GatherKernel::VslSurface => GatherKind::VplToSurface,
+            GatherKernel::VblSurface => GatherKind::VrlToSurface,
+            GatherKernel::VslMedia => GatherKind::VplToMedia,
+            _ => GatherKind::VrlToMedia,
+        };
+        let tree = if k.reads_vpls() { &vsl_tree } else { &vbl_tree };
+        let drawn = |i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
+        let estimate = |i: usize, rx: Receiver, f: &(dyn Fn(usize, &mut Sampler) -> Rgb + Sync)| {
+            let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
+            let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
+            tree.estimate(&rx, r, samples, xi, descent, |slot, j| f(j, &mut drawn(i, slot)))
+        };
+        let clock = Instant::now();
+        let total: Rgb = if k.on_surfaces() {
+            sps.par_iter()
+                .enumerate()
+                .map(|(i, sp)| {
+                    estimate(i, Receiver::at_point(&ts.scene, sp), &|j, s| match k {
+                        GatherKernel::VslSurface => vbl::vsl_to_surface(ts, sp, &vpls[j], radius2, &vbl, s),
+                        _ => vbl::vbl_to_surface(ts, sp, &vrls[j], radius2, &vbl, s),
+                    })
+                })
+                .sum()
+        } else {
+            segs.par_iter()
+                .enumerate()
+                .map(|(i, seg)| {
+                    estimate(i, Receiver::along_segment(seg), &|j, s| match k {
+                        GatherKernel::VslMedia => vbl::vsl_to_media(ts, seg, &vpls[j], radius2, &vbl, s),
+                        _ => vbl::vbl_to_media(ts, seg, &vrls[j], radius2, &vbl, s),
+                    })
+                })
+                .sum()
+        };
+        let cpu = clock.elapsed().as_secs_f64();
+        std::hint::black_box(total);
+        report(
+            &format!("  records, {samples} drawn"),
+            inputs.records(k) as f64,
+            g.kernel_seconds[k as usize],
+            cpu,
+        );
     }
 }
 
@@ -191,7 +270,7 @@ fn sum_over<R: Sync, L: Sync>(records: &[R], lights: &[L], f: impl Fn(usize, &R,
 
 fn report(what: &str, n: f64, gpu: f64, cpu: f64) {
     println!(
-        "{what:<24} gpu {:>8.2} M/s   cpu {:>8.2} M/s ({} threads)   gpu/cpu {:>5.2}",
+        "{what:<28} gpu {:>8.2} M/s   cpu {:>8.2} M/s ({} threads)   gpu/cpu {:>5.2}",
         n / gpu / 1e6,
         n / cpu / 1e6,
         rayon::current_num_threads(),

@@ -135,6 +135,7 @@ pub fn resolve_bsdf(scene: &Scene, material: u32, uv: Vec2) -> layout::Bsdf {
 }
 
 /// One pass's records, as the CPU traced them.
+#[derive(Clone, Copy)]
 pub struct GatherInputs<'a> {
     pub shading_points: &'a [ShadingPoint],
     pub media_segments: &'a [MediaSegment],
