@@ -179,8 +179,8 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
             cpu,
         );
         if GatherKernel::BEAMS.contains(&k) {
-            report(
-                &format!("  records, all {} lights", inputs.lights(k)),
+            report_records(
+                &format!("  {} records, all {} lights", k.name(), inputs.lights(k)),
                 inputs.records(k) as f64,
                 g.kernel_seconds[k as usize],
                 cpu,
@@ -250,8 +250,8 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
         };
         let cpu = clock.elapsed().as_secs_f64();
         std::hint::black_box(total);
-        report(
-            &format!("  records, {samples} drawn"),
+        report_records(
+            &format!("  {} records, {samples} drawn", k.name()),
             inputs.records(k) as f64,
             g.kernel_seconds[k as usize],
             cpu,
@@ -268,9 +268,20 @@ fn sum_over<R: Sync, L: Sync>(records: &[R], lights: &[L], f: impl Fn(usize, &R,
         .sum()
 }
 
+/// Gather records per second (each against all of its lights, or its drawn ones).
+fn report_records(what: &str, n: f64, gpu: f64, cpu: f64) {
+    println!(
+        "{what:<36} gpu {:>8.1} k/s   cpu {:>8.1} k/s ({} threads)   gpu/cpu {:>5.2}",
+        n / gpu / 1e3,
+        n / cpu / 1e3,
+        rayon::current_num_threads(),
+        cpu / gpu
+    );
+}
+
 fn report(what: &str, n: f64, gpu: f64, cpu: f64) {
     println!(
-        "{what:<28} gpu {:>8.2} M/s   cpu {:>8.2} M/s ({} threads)   gpu/cpu {:>5.2}",
+        "{what:<36} gpu {:>8.2} M/s   cpu {:>8.2} M/s ({} threads)   gpu/cpu {:>5.2}",
         n / gpu / 1e6,
         n / cpu / 1e6,
         rayon::current_num_threads(),
