@@ -125,7 +125,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     } else if params.vbl_tree_nodes > 0u {
         // Light selection: `light_samples` lights drawn from the pass's tree, each over its
         // probability (`many_lights::timed_drawn`).
-        let receiver = segment_receiver(seg.origin, seg.dir, seg.length);
+        let receiver = segment_receiver(seg.origin, seg.dir, seg.length, media[seg.medium].g);
         let xi = selection_number(KIND_VRL_TO_MEDIA, i);
         for (var k = 0u; k < params.light_samples; k++) {
             let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, KIND_VRL_TO_MEDIA, i, k, xi);

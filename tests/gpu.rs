@@ -352,7 +352,7 @@ fn compare_gathers_chunked(
                 r,
                 samples,
                 m,
-                Receiver::along_segment,
+                |seg| Receiver::along_segment(&ts.scene, seg),
                 GatherKind::VplToMedia,
                 (pair_seed, pass),
                 |i, seg, slot, j| {
@@ -366,7 +366,7 @@ fn compare_gathers_chunked(
                 r,
                 samples,
                 m,
-                Receiver::along_segment,
+                |seg| Receiver::along_segment(&ts.scene, seg),
                 GatherKind::VrlToMedia,
                 (pair_seed, pass),
                 |i, seg, slot, j| {

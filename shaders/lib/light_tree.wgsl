@@ -14,7 +14,9 @@ struct LightTreeNode {
     child: u32,
     // A segment leaf's extinction: its light fades like exp(−σt t) along it.
     sigma_t: f32,
-    _pad: array<u32, 3>,
+    // A segment leaf's Henyey–Greenstein g.
+    g: f32,
+    _pad: array<u32, 2>,
 }
 
 const LIGHT_LEAF: u32 = 0x80000000u;
@@ -35,11 +37,13 @@ struct Receiver {
     exponent: f32,
     diffuse: f32,
     specular: f32,
+    // A media segment's phase function g.
+    g: f32,
 }
 
 // `Receiver::at_point` with `Gloss::of` the record's BSDF.
 fn point_receiver(p: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, f: Bsdf) -> Receiver {
-    var rx = Receiver(p, false, n, 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0, 0.0);
+    var rx = Receiver(p, false, n, 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0, 0.0, 0.0);
     if f.kind == BSDF_PHONG {
         rx.mirror = n * (2.0 * dot_glam(n, wo)) - wo;
         rx.exponent = f.exponent;
@@ -51,8 +55,27 @@ fn point_receiver(p: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, f: Bsdf) -> Receive
     return rx;
 }
 
-fn segment_receiver(o: vec3<f32>, d: vec3<f32>, len: f32) -> Receiver {
-    return Receiver(o, true, d, len, vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0, 0.0);
+fn segment_receiver(o: vec3<f32>, d: vec3<f32>, len: f32, g: f32) -> Receiver {
+    return Receiver(o, true, d, len, vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0, 0.0, g);
+}
+
+// `light_tree::phase_ratio`.
+fn phase_ratio(g: f32, cos_t: f32) -> f32 {
+    return (1.0 - g * g) / pow(max(1.0 + g * g - 2.0 * g * cos_t, 1e-12), 1.5);
+}
+
+// `light_tree::phase_towards`.
+fn phase_towards(g: f32, travel: vec3<f32>, to: vec3<f32>) -> f32 {
+    let len = length_glam(travel) * length_glam(to);
+    if len > 0.0 {
+        return phase_ratio(g, clamp(dot_glam(travel, to) / len, -1.0, 1.0));
+    }
+    return 1.0;
+}
+
+// The point of the camera segment closest to y (`nearest` in `light_tree::importance`).
+fn segment_nearest(rx: Receiver, y: vec3<f32>) -> vec3<f32> {
+    return rx.a + rx.b * clamp(dot_glam(y - rx.a, rx.b), 0.0, rx.len);
 }
 
 // `Gloss::max_in_cone`.
@@ -194,7 +217,8 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
             let first = free_path(node.sigma_t, len);
             let start = fade_density(node.sigma_t, len, first) * cosine_line(alpha, beta, h, t0, lo_t, hi_t, 0.0, first);
             let floor = 1e-3 / max(d2, r * r);
-            return node.weight * f * max(max(closest, start), floor);
+            let phase = phase_towards(node.g, dir, p - (a + dir * clamp(t0, 0.0, len)));
+            return node.weight * f * phase * max(max(closest, start), floor);
         }
         let cp = c - p;
         let falloff = 1.0 / max(max(dot_glam(cp, cp), rb * rb), r * r);
@@ -221,10 +245,17 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
         let first = free_path(node.sigma_t, l);
         let seen_a = seen_from(rx, a, 0.0, r);
         let start = fade_density(node.sigma_t, l, first) * seen_a.x * asinh(first * s / seen_a.y) / s;
-        return node.weight * max(closest, start);
+        let y = a + dir * u0;
+        let to = segment_nearest(rx, y) - y;
+        let phase = phase_towards(node.g, dir, to) * phase_towards(rx.g, to, -d);
+        return node.weight * phase * max(closest, start);
     }
     let seen = seen_from(rx, c, rb, r);
-    return node.weight * seen.x / seen.y;
+    var phase = 1.0;
+    if (node.child & LIGHT_LEAF) != 0u {
+        phase = phase_towards(rx.g, segment_nearest(rx, c) - c, -rx.b);
+    }
+    return node.weight * phase * seen.x / seen.y;
 }
 
 // `light_tree::DEFENSIVE_SHARE`.

@@ -241,7 +241,7 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
             segs.par_iter()
                 .enumerate()
                 .map(|(i, seg)| {
-                    estimate(i, Receiver::along_segment(seg), &|j, s| match k {
+                    estimate(i, Receiver::along_segment(&ts.scene, seg), &|j, s| match k {
                         GatherKernel::VslMedia => vbl::vsl_to_media(ts, seg, &vpls[j], radius2, &vbl, s),
                         _ => vbl::vbl_to_media(ts, seg, &vrls[j], radius2, &vbl, s),
                     })

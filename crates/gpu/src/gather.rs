@@ -194,6 +194,11 @@ pub struct Gathers {
     chunk_limit: usize,
 }
 
+/// The most (record, light) pairs one dispatch evaluates: 2¹⁶, about 40 ms of the slowest
+/// kernel (`Lsm` with VBLs, 1.7 M pairs/s) on lavapipe; a display GPU's watchdog allows
+/// seconds.
+const PAIRS_PER_DISPATCH: usize = 1 << 16;
+
 /// The slots of bind group 1 (see `lib/gather.wgsl`).
 const GATHER_SLOTS: [Slot; 9] = [
     Slot::Uniform,
@@ -236,9 +241,13 @@ impl Gathers {
     /// (a shading point), rounded down to a multiple of 16 so that every chunk's byte offset
     /// (a multiple of 16 records of 16, 32, 48 or 80 bytes) is a multiple of 256, the largest
     /// storage-offset alignment an adapter may demand.
-    fn records_per_dispatch(&self, gpu: &Gpu) -> usize {
+    /// Dispatches are also sized by work: at most [`PAIRS_PER_DISPATCH`] (record, light)
+    /// pairs each (`pairs_per_record` is the lights a record gathers or draws), so that no
+    /// dispatch runs long enough for a display GPU's watchdog to kill it.
+    fn records_per_dispatch(&self, gpu: &Gpu, pairs_per_record: usize) -> usize {
         let fits = compute::max_binding(gpu) as usize / size_of::<ShadingPoint>();
-        (fits / 16 * 16).clamp(16, self.chunk_limit)
+        let work = PAIRS_PER_DISPATCH / pairs_per_record.max(1);
+        (fits.min(work) / 16 * 16).clamp(16, self.chunk_limit)
     }
 
     /// Runs the kernels with `run[k]` set and returns their results, read back once.
@@ -312,9 +321,10 @@ impl Gathers {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let mut outputs: Vec<(GatherKernel, wgpu::Buffer, usize)> = Vec::new();
         let mut timed = Vec::new();
-        let chunk = self.records_per_dispatch(gpu);
         for k in GatherKernel::ALL.into_iter().filter(|&k| wanted(k)) {
             let (records, lights) = (inputs.records(k), inputs.lights(k));
+            let drawn = inputs.light_samples > 0 && GatherKernel::BEAMS.contains(&k);
+            let chunk = self.records_per_dispatch(gpu, if drawn { inputs.light_samples as usize } else { lights });
             let out = compute::output_unbound::<[f32; 4]>(gpu, "gathered", records)?;
             let kernel = self.kernels[k as usize].as_ref().expect("wanted kernels exist");
             // All of one kernel's dispatches go into one timed compute pass.

@@ -120,5 +120,5 @@ fn gather_structs_match() {
     check!(w, LightSegment, [origin, length, dir, medium, power, flags]);
     let w = parse("vbl_media.wgsl");
     use beamlight_trace::light_tree::LightTreeNode;
-    check!(w, LightTreeNode, [lo, weight, hi, child, sigma_t, _pad]);
+    check!(w, LightTreeNode, [lo, weight, hi, child, sigma_t, g, _pad]);
 }

@@ -400,7 +400,7 @@ pub fn start_pass(
             let mut t = [0f64; N];
             if on_cpu {
                 let (lms, lmm) = if let Some(sel) = &selection {
-                    let rx = Receiver::along_segment(seg);
+                    let rx = Receiver::along_segment(&ts.scene, seg);
                     let (vsl, vbl_k) = (GatherKind::VplToMedia, GatherKind::VrlToMedia);
                     (
                         timed_drawn(

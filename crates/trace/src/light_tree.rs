@@ -22,9 +22,11 @@
 //!   light p (the receiver's BSDF reflects only on the side of n) and gets 0;
 //! * a camera media segment: ∫ dt / (H² + (t − t_c)²) along it, with t_c the segment parameter
 //!   closest to the box centre and H the centre's distance to the line floored at r_b and R;
-//! * a VBL's leaf: its own segment instead of its box, the light's density along it fading
-//!   like e^(−σt t), taken at the point closest to the receiver, times the same integrals along
-//!   the VBL (and for a camera segment along both), or if larger the whole light at its start.
+//! * a VBL's leaf: its own segment instead of its box. Its light's density along it, fading
+//!   like e^(−σt t), taken at the point closest to the receiver, times the falloff integrated
+//!   along the VBL (for a shading point the cosine-weighted falloff over the part above the
+//!   horizon; for a camera segment along both lines); or, if larger, the density at the end of
+//!   the VBL's first mean free path times the same integral over that first stretch.
 //!
 //! **Sampling.** A record descends from the root, choosing the left child with probability
 //! a/(a+b) of the children's importances; the product of the choices is the leaf's
@@ -62,7 +64,10 @@ pub struct LightTreeNode {
     /// A segment light's extinction σt (the densest along it; for an interior node the largest
     /// of its lights'): its light fades like e^(−σt t) along the segment. 0 for points.
     pub sigma_t: f32,
-    pub _pad: [u32; 3],
+    /// A segment leaf's Henyey–Greenstein g (its light scatters off it by that phase
+    /// function); 0 otherwise.
+    pub g: f32,
+    pub _pad: [u32; 2],
 }
 
 /// `LightTreeNode::child` of a leaf.
@@ -99,7 +104,7 @@ impl LightTreeNode {
     }
 }
 
-/// The largest f32 below 1: a rescaled uniform number never reaches 1.
+/// The largest f32 below 1: a stratified number (k + ξ)/K never reaches 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// A tree over one pass's VSLs or VBLs; empty when no light can contribute.
@@ -113,8 +118,8 @@ pub struct LightTree {
 pub enum Receiver {
     /// A shading point and its normal on the side light is gathered from.
     Point { p: Vec3, n: Vec3, gloss: Gloss },
-    /// A stretch `o + d t`, t in [0, len], of a camera ray in a medium.
-    Segment { o: Vec3, d: Vec3, len: f32 },
+    /// A stretch `o + d t`, t in [0, len], of a camera ray in a medium of phase function g.
+    Segment { o: Vec3, d: Vec3, len: f32, g: f32 },
 }
 
 /// A shading point's BSDF as the importance sees it: the modified Phong lobe
@@ -205,11 +210,12 @@ impl Receiver {
     }
 
     /// A camera media segment.
-    pub fn along_segment(seg: &MediaSegment) -> Receiver {
+    pub fn along_segment(scene: &Scene, seg: &MediaSegment) -> Receiver {
         Receiver::Segment {
             o: Vec3::from(seg.origin),
             d: Vec3::from(seg.dir),
             len: seg.length,
+            g: scene.media[seg.medium as usize].g,
         }
     }
 }
@@ -286,6 +292,24 @@ fn free_path(sigma_t: f32, len: f32) -> f32 {
 /// Mean free paths of a VBL its tree bounds cover (see [`LightTree::over_vbls`]).
 const CLIP_FREE_PATHS: f32 = 8.0;
 
+/// A Henyey–Greenstein phase function of asymmetry `g` for light turning by angle θ (cos θ
+/// between the directions of travel before and after), relative to the isotropic 1/(4π):
+/// (1 − g²) / (1 + g² − 2g cos θ)^(3/2). Positive for |g| < 1.
+fn phase_ratio(g: f32, cos: f32) -> f32 {
+    (1.0 - g * g) / (1.0 + g * g - 2.0 * g * cos).max(1e-12).powf(1.5)
+}
+
+/// The phase ratio for light travelling along `travel` that turns towards `to` (neither need
+/// be unit; 1 when either has no length).
+fn phase_towards(g: f32, travel: Vec3, to: Vec3) -> f32 {
+    let len = travel.length() * to.length();
+    if len > 0.0 {
+        phase_ratio(g, (travel.dot(to) / len).clamp(-1.0, 1.0))
+    } else {
+        1.0
+    }
+}
+
 /// The density of a segment light's scattered light at `t` along it (length `len`, fading
 /// with `sigma_t`), normalised over the segment: e^(−σt t) / ∫₀^L e^(−σt u) du.
 fn fade_density(sigma_t: f32, len: f32, t: f32) -> f32 {
@@ -300,6 +324,8 @@ pub struct TreeLight {
     pub hi: Vec3,
     pub weight: f32,
     pub sigma_t: f32,
+    /// The phase function's g of a segment light's medium (0 for points).
+    pub g: f32,
     pub index: u32,
 }
 
@@ -317,6 +343,7 @@ impl LightTree {
                 hi: p,
                 weight: vsl_weight(scene, v),
                 sigma_t: 0.0,
+                g: 0.0,
                 index: i as u32,
             }
         }))
@@ -341,6 +368,7 @@ impl LightTree {
                 hi: a.max(b),
                 weight,
                 sigma_t,
+                g: scene.media[v.medium as usize].g,
                 index: i as u32 | diagonal << DIAGONAL_SHIFT,
             }
         }))
@@ -388,7 +416,8 @@ impl LightTree {
                 hi: hi.into(),
                 child: LEAF | items[0].index,
                 sigma_t: items[0].sigma_t,
-                _pad: [0; 3],
+                g: items[0].g,
+                _pad: [0; 2],
             };
             return;
         }
@@ -416,7 +445,8 @@ impl LightTree {
             // Positive in a tree of segment lights: no horizon culling there (their bounds are
             // clipped, see `importance`).
             sigma_t: items.iter().map(|l| l.sigma_t).fold(0.0, f32::max),
-            _pad: [0; 3],
+            g: 0.0,
+            _pad: [0; 2],
         };
         let (a, b) = items.split_at_mut(mid);
         self.fill(left, a);
@@ -665,7 +695,9 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
                     let start = fade_density(node.sigma_t, len, first) * cosine_line(0.0, first);
                     // A floor for rounding (and for the faint end beyond the clipped bounds).
                     let floor = 1e-3 / d2.max(r * r);
-                    node.weight * f * closest.max(start).max(floor)
+                    // The VBL's phase function from its point closest to p towards p.
+                    let phase = phase_towards(node.g, dir, p - (a + dir * t0.clamp(0.0, len)));
+                    node.weight * f * phase * closest.max(start).max(floor)
                 }
                 None => {
                     let falloff = 1.0 / (c - p).length_squared().max(rb * rb).max(r * r);
@@ -675,7 +707,9 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
                 }
             }
         }
-        Receiver::Segment { o, d, len } => {
+        Receiver::Segment { o, d, len, g } => {
+            // The point of the camera segment closest to y.
+            let nearest = |y: Vec3| o + d * (y - o).dot(d).clamp(0.0, len);
             // ∫₀^len dt / (h² + (t − tc)²) = (atan((len − tc)/h) + atan(tc/h)) / h along the
             // camera segment, seen from the light's point `y` at distance h from its line.
             let seen_from = |y: Vec3, floor: f32| {
@@ -713,11 +747,24 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
                     let first = free_path(node.sigma_t, l);
                     let (angle_a, h_a) = seen_from(a, 0.0);
                     let start = fade_density(node.sigma_t, l, first) * angle_a * (first * s / h_a).asinh() / s;
-                    node.weight * closest.max(start)
+                    // Both phase functions between the two closest points: the VBL's turning
+                    // its light towards the camera segment, the camera medium's turning it
+                    // towards the camera.
+                    let y = a + dir * u0;
+                    let to = nearest(y) - y;
+                    let phase = phase_towards(node.g, dir, to) * phase_towards(g, to, -d);
+                    node.weight * phase * closest.max(start)
                 }
                 None => {
                     let (angle, h) = seen_from(c, rb);
-                    node.weight * angle / h
+                    // A point light's leaf: the camera medium's phase function turning its
+                    // light towards the camera.
+                    let phase = if node.is_leaf() {
+                        phase_towards(g, nearest(c) - c, -d)
+                    } else {
+                        1.0
+                    };
+                    node.weight * phase * angle / h
                 }
             }
         }
@@ -752,6 +799,7 @@ mod tests {
             o: Vec3::ZERO,
             d: Vec3::X,
             len: 1.0,
+            g: 0.7,
         };
         for y in [-3.0, 0.0, 0.5, 40.0] {
             let v = importance(&node(y), &seg, r);

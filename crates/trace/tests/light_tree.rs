@@ -39,6 +39,7 @@ fn tree_of(lights: &[(Vec3, Vec3, f32)]) -> LightTree {
         hi,
         weight,
         sigma_t: 0.5,
+        g: 0.5,
         index: i as u32,
     }))
 }
@@ -67,11 +68,13 @@ fn receivers() -> [Receiver; NUM_TESTS] {
             o: Vec3::new(-3.0, 0.5, 0.0),
             d: Vec3::X,
             len: 6.0,
+            g: 0.7,
         },
         Receiver::Segment {
             o: Vec3::new(0.0, 0.0, -5.0),
             d: Vec3::new(0.1, 0.0, 1.0).normalize(),
             len: 2.0,
+            g: -0.3,
         },
     ]
 }
