@@ -61,7 +61,15 @@ fn segment_receiver(o: vec3<f32>, d: vec3<f32>, len: f32, g: f32) -> Receiver {
 
 // `light_tree::phase_ratio`.
 fn phase_ratio(g: f32, cos_t: f32) -> f32 {
-    return (1.0 - g * g) / pow(max(1.0 + g * g - 2.0 * g * cos_t, 1e-12), 1.5);
+    let q = max(1.0 + g * g - 2.0 * g * cos_t, 1e-12);
+    return (1.0 - g * g) / (q * sqrt(q));
+}
+
+// `light_tree::asinh`: stable near 0, where the builtin may cancel.
+fn asinh_stable(x: f32) -> f32 {
+    let a = abs(x);
+    let v = log_1p(a + a * a / (1.0 + sqrt(1.0 + a * a)));
+    return select(v, -v, x < 0.0);
 }
 
 // `light_tree::phase_towards`.
@@ -155,7 +163,8 @@ fn seen_from(rx: Receiver, y: vec3<f32>, floor: f32, r: f32) -> vec2<f32> {
     let v = y - rx.a;
     let tc = dot_glam(v, rx.b);
     let h = max(max(sqrt(max(dot_glam(v, v) - tc * tc, 0.0)), floor), r);
-    return vec2<f32>(max(atan((rx.len - tc) / h) + atan(tc / h), 0.0), h);
+    // `precise_atan2` (lib/sampling.wgsl): the builtin atan may be off by thousands of ulps.
+    return vec2<f32>(max(precise_atan2(rx.len - tc, h) + precise_atan2(tc, h), 0.0), h);
 }
 
 // `light_tree::importance`.
@@ -240,11 +249,11 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
         u0 = clamp(u0, 0.0, l);
         let seen = seen_from(rx, a + dir * u0, 0.0, r);
         let s = max(sqrt(sin2), 1e-3);
-        let along = (asinh((l - u0) * s / seen.y) + asinh(u0 * s / seen.y)) / s;
+        let along = (asinh_stable((l - u0) * s / seen.y) + asinh_stable(u0 * s / seen.y)) / s;
         let closest = fade_density(node.sigma_t, l, u0) * seen.x * along;
         let first = free_path(node.sigma_t, l);
         let seen_a = seen_from(rx, a, 0.0, r);
-        let start = fade_density(node.sigma_t, l, first) * seen_a.x * asinh(first * s / seen_a.y) / s;
+        let start = fade_density(node.sigma_t, l, first) * seen_a.x * asinh_stable(first * s / seen_a.y) / s;
         let y = a + dir * u0;
         let to = segment_nearest(rx, y) - y;
         let phase = phase_towards(node.g, dir, to) * phase_towards(rx.g, to, -d);

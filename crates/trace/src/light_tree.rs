@@ -296,7 +296,16 @@ const CLIP_FREE_PATHS: f32 = 8.0;
 /// between the directions of travel before and after), relative to the isotropic 1/(4π):
 /// (1 − g²) / (1 + g² − 2g cos θ)^(3/2). Positive for |g| < 1.
 fn phase_ratio(g: f32, cos: f32) -> f32 {
-    (1.0 - g * g) / (1.0 + g * g - 2.0 * g * cos).max(1e-12).powf(1.5)
+    let q = (1.0 + g * g - 2.0 * g * cos).max(1e-12);
+    (1.0 - g * g) / (q * q.sqrt())
+}
+
+/// asinh(x) = ln(1 + |x| + x²/(1 + √(1 + x²))) with the sign of x, accurate near 0 (as the
+/// WGSL twin computes it: the GPU's own `asinh` may cancel there, and a choice in the descent
+/// would then differ from the CPU's).
+fn asinh(x: f32) -> f32 {
+    let a = x.abs();
+    (a + a * a / (1.0 + (1.0 + a * a).sqrt())).ln_1p().copysign(x)
 }
 
 /// The phase ratio for light travelling along `travel` that turns towards `to` (neither need
@@ -716,7 +725,7 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
                 let v = y - o;
                 let tc = v.dot(d);
                 let h = (v.length_squared() - tc * tc).max(0.0).sqrt().max(floor).max(r);
-                ((((len - tc) / h).atan() + (tc / h).atan()).max(0.0), h)
+                (((len - tc).atan2(h) + tc.atan2(h)).max(0.0), h)
             };
             match segment {
                 // A segment light: ∫ ρ(u) du ∫ dt / d², ρ its light's density along it, with
@@ -740,13 +749,13 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
                     .clamp(0.0, l);
                     let (angle, h) = seen_from(a + dir * u0, 0.0);
                     let s = sin2.sqrt().max(1e-3);
-                    let along = (((l - u0) * s / h).asinh() + (u0 * s / h).asinh()) / s;
+                    let along = (asinh((l - u0) * s / h) + asinh(u0 * s / h)) / s;
                     let closest = fade_density(node.sigma_t, l, u0) * angle * along;
                     // The least density of the first mean free path over that stretch, seen
                     // from its start (where a fast fading segment's light is).
                     let first = free_path(node.sigma_t, l);
                     let (angle_a, h_a) = seen_from(a, 0.0);
-                    let start = fade_density(node.sigma_t, l, first) * angle_a * (first * s / h_a).asinh() / s;
+                    let start = fade_density(node.sigma_t, l, first) * angle_a * asinh(first * s / h_a) / s;
                     // Both phase functions between the two closest points: the VBL's turning
                     // its light towards the camera segment, the camera medium's turning it
                     // towards the camera.
