@@ -169,10 +169,14 @@ struct RenderArgs {
     /// jitter and next-event estimate each; the gathers use one).
     #[arg(long, default_value_t = many_lights::DEFAULT_DIRECT_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=4096))]
     direct_samples: u32,
-    /// Many-light methods: light paths traced per pass for the caustics (photon mapping and
-    /// photon beams), apart from the gathers' `--light-paths`.
+    /// Many-light methods: light paths traced per pass for the surface caustics (photon
+    /// mapping), apart from the gathers' `--light-paths`.
     #[arg(long, default_value_t = many_lights::DEFAULT_CAUSTIC_PATHS, value_parser = clap::value_parser!(u32).range(1..))]
     caustic_paths: u32,
+    /// Many-light methods: light paths traced per pass for the volume caustics (photon
+    /// beams; each costs a lookup per camera media segment it crosses).
+    #[arg(long, default_value_t = many_lights::DEFAULT_BEAM_PATHS, value_parser = clap::value_parser!(u32).range(1..))]
+    beam_paths: u32,
     /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
     #[arg(long)]
     clamp_distance: Option<f32>,
@@ -391,6 +395,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             light_samples: args.light_samples.0,
             direct_samples: args.direct_samples,
             caustic_paths: args.caustic_paths,
+            beam_paths: args.beam_paths,
             clamp: args.clamp_distance.unwrap_or(0.0),
             radius: args.radius.unwrap_or(0.0),
             photon_radius: args.photon_radius.unwrap_or(0.0),

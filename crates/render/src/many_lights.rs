@@ -66,19 +66,26 @@ pub struct ManyLightSettings {
     /// BSDF/phase sampling, MIS) at each of its records. Direct light costs little next to
     /// the gathers, so it gets more samples and no longer sets the pass's noise.
     pub direct_samples: u32,
-    /// Light paths traced per pass for the caustics alone (`--caustic-paths`), apart from
-    /// the gathers' light paths: a caustic photon or photon beam costs its path and a lookup,
-    /// not a gather over every record, so they come in thousands. Their radius follows eq. 11
-    /// with this count. 0 when the scene has no mirror or glass (no caustics to trace).
+    /// Light paths traced per pass for the surface caustics alone (`--caustic-paths`), apart
+    /// from the gathers' light paths: a caustic photon costs its path and a lookup, not a
+    /// gather over every record, so they come in thousands. Their radius follows eq. 11 with
+    /// this count. 0 when the scene has no mirror or glass (no caustics to trace).
     pub caustic_paths: u32,
+    /// Light paths traced per pass for the volume caustics (`--beam-paths`): each camera
+    /// media segment looks up every photon beam whose tube it crosses, so beams cost more than
+    /// photons and get fewer paths. Their radius follows eq. 11 with this count.
+    pub beam_paths: u32,
 }
 
 /// Lights a gather record draws per component by default (`--light-samples`).
 pub const DEFAULT_LIGHT_SAMPLES: u32 = 4;
 /// Camera samples per pixel per pass for direct light by default (`--direct-samples`).
 pub const DEFAULT_DIRECT_SAMPLES: u32 = 4;
-/// Light paths per pass for the caustics by default (`--caustic-paths`).
-pub const DEFAULT_CAUSTIC_PATHS: u32 = 2048;
+/// Light paths per pass for the surface caustics by default (`--caustic-paths`): at
+/// 1280×720 in CARS 16× the volume's count costs as little as the 2048 beam paths do.
+pub const DEFAULT_CAUSTIC_PATHS: u32 = 32768;
+/// Light paths per pass for the volume caustics by default (`--beam-paths`).
+pub const DEFAULT_BEAM_PATHS: u32 = 2048;
 
 impl Default for ManyLightSettings {
     fn default() -> Self {
@@ -93,6 +100,7 @@ impl Default for ManyLightSettings {
             light_samples: Some(DEFAULT_LIGHT_SAMPLES),
             direct_samples: DEFAULT_DIRECT_SAMPLES,
             caustic_paths: DEFAULT_CAUSTIC_PATHS,
+            beam_paths: DEFAULT_BEAM_PATHS,
         }
     }
 }
@@ -243,23 +251,25 @@ pub fn start_pass(
     );
     let m = lights.paths.max(1) as f32;
     let r2 = pass_squared_radius(settings.radius, settings, pass);
-    // The caustics' own light paths (their VPLs and VRLs are not used).
-    let caustic_lights = if settings.caustic_paths > 0 {
-        let seed_c = beamlight_scene::rng::pcg_hash(seed ^ 0x1656_67b1);
-        trace_light_paths(
-            ts,
-            &LightTracerSettings::default(),
-            settings.caustic_paths,
-            seed_c,
-            pass,
-        )
-    } else {
-        Default::default()
+    // The caustics' own light paths, one set for the photons and one for the beams (their
+    // VPLs and VRLs are not used), each with its own count M in the estimates and eq. 11.
+    let caustic_set = |paths: u32, salt: u32| {
+        if paths > 0 {
+            let seed_c = beamlight_scene::rng::pcg_hash(seed ^ salt);
+            trace_light_paths(ts, &LightTracerSettings::default(), paths, seed_c, pass)
+        } else {
+            Default::default()
+        }
     };
-    let m_caustic = caustic_lights.paths.max(1) as f32;
+    let (photon_lights, beam_lights) = (
+        caustic_set(settings.caustic_paths, 0x1656_67b1),
+        caustic_set(settings.beam_paths, 0x3c6e_f372),
+    );
+    let (m_photons, m_beams) = (photon_lights.paths.max(1) as f32, beam_lights.paths.max(1) as f32);
     let photon_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, settings.caustic_paths, pass);
-    let photons = PhotonMap::build(&caustic_lights.caustic_photons, photon_r2);
-    let beams = BeamMap::build(&caustic_lights.photon_beams, photon_r2);
+    let beam_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, settings.beam_paths, pass);
+    let photons = PhotonMap::build(&photon_lights.caustic_photons, photon_r2);
+    let beams = BeamMap::build(&beam_lights.photon_beams, beam_r2);
     times.trace = clock.elapsed();
     let beams_on = settings.lights == VirtualLights::Beams;
     // With light selection, each record draws `k` lights per component from the pass's trees.
@@ -384,7 +394,7 @@ pub fn start_pass(
             }
             if !photons.is_empty() {
                 c[Component::CausticSurface as usize] = timed(&mut t[Component::CausticSurface as usize], || {
-                    photons.radiance(ts, sp) / m_caustic
+                    photons.radiance(ts, sp) / m_photons
                 });
             }
             (sp.pixel, c, t)
@@ -448,7 +458,7 @@ pub fn start_pass(
             }
             if !beams.is_empty() {
                 c[Component::CausticVolume as usize] = timed(&mut t[Component::CausticVolume as usize], || {
-                    beams.radiance(ts, seg, &mut s) / m_caustic
+                    beams.radiance(ts, seg, &mut s) / m_beams
                 });
             }
             (seg.pixel, c, t)

@@ -111,6 +111,7 @@ pub fn render_from(
     mut on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
     // `vrl` is unclamped by definition; `vrl-clamped` uses the given distance or the default.
+    let specular = crate::components::SceneFeatures::of(&ts.scene).specular_surfaces;
     let many_light_settings = ManyLightSettings {
         lights: match opts.method {
             Method::Vbl => VirtualLights::Beams,
@@ -127,11 +128,8 @@ pub fn render_from(
             many_lights::default_radius(&ts.scene)
         },
         // Without mirrors or glass there are no caustics: no light paths for them.
-        caustic_paths: if crate::components::SceneFeatures::of(&ts.scene).specular_surfaces {
-            opts.many_lights.caustic_paths
-        } else {
-            0
-        },
+        caustic_paths: if specular { opts.many_lights.caustic_paths } else { 0 },
+        beam_paths: if specular { opts.many_lights.beam_paths } else { 0 },
         photon_radius: if opts.many_lights.photon_radius > 0.0 {
             opts.many_lights.photon_radius
         } else {
