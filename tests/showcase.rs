@@ -94,24 +94,6 @@ fn renders_everywhere(name: &str, size: (u32, u32)) {
     }
 }
 
-/// The image averaged over `block`×`block` pixel tiles: the comparison below is of the
-/// picture's structure, not of per-pixel noise, which a few passes cannot remove.
-fn blocks(img: &Image, block: u32) -> Image {
-    let (w, h) = (img.width / block, img.height / block);
-    let mut pixels = vec![beamlight_scene::Rgb::ZERO; (w * h) as usize];
-    for y in 0..h * block {
-        for x in 0..w * block {
-            pixels[((y / block) * w + x / block) as usize] += img.pixels[(y * img.width + x) as usize];
-        }
-    }
-    let n = (block * block) as f32;
-    Image {
-        width: w,
-        height: h,
-        pixels: pixels.into_iter().map(|p| p / n).collect(),
-    }
-}
-
 /// `vbl` after `passes` against `pt` after `spp`: the relMSE of 4×4-pixel tile means and the
 /// ratio of the image means.
 fn vbl_against_pt(name: &str, size: (u32, u32), passes: u64, spp: u64, max_rel_mse: f64, max_mean_error: f32) {
@@ -121,7 +103,9 @@ fn vbl_against_pt(name: &str, size: (u32, u32), passes: u64, spp: u64, max_rel_m
     let vbl = render(&ts, &opts, |_| true).unwrap();
     let pt = render(&ts, &options(Method::Pt, size, Budget::Passes(spp), 6), |_| true).unwrap();
     let (a, b) = (vbl.film.image(), pt.film.image());
-    let rel_mse = compare(&blocks(&a, 4), &blocks(&b, 4)).unwrap().rel_mse;
+    // Means of 4×4-pixel tiles: the picture's structure, not the per-pixel noise that a few
+    // passes cannot remove.
+    let rel_mse = compare(&a.downsample(4), &b.downsample(4)).unwrap().rel_mse;
     let (ma, mb) = (a.mean(), b.mean());
     let mean_error = ((ma - mb) / mb).abs().max_element();
     eprintln!(

@@ -78,6 +78,9 @@ enum Command {
         /// One exposure in stops for every tile instead (keeps brightness comparable).
         #[arg(long, allow_negative_numbers = true)]
         exposure: Option<f32>,
+        /// Average N×N pixel blocks of every image first (smaller sheets of large renders).
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+        downsample: u32,
     },
     /// Merge the accumulators of adjacent pass ranges (`render --passes A..B`) into one image.
     Merge {
@@ -257,7 +260,8 @@ pub fn main() -> ExitCode {
             columns,
             percentile,
             exposure,
-        } => sheet_cmd(&inputs, &labels, &output, columns, percentile, exposure),
+            downsample,
+        } => sheet_cmd(&inputs, &labels, &output, columns, percentile, exposure, downsample),
         Command::Merge {
             parts,
             passes,
@@ -533,6 +537,7 @@ fn sheet_cmd(
     columns: u32,
     percentile: f32,
     exposure: Option<f32>,
+    downsample: u32,
 ) -> Result<()> {
     use beamlight_render::sheet::{Exposure, contact_sheet};
     check_output_path(output, "png")?;
@@ -564,6 +569,10 @@ fn sheet_cmd(
         }
         tiles
     };
+    let tiles: Vec<(String, beamlight_render::Image)> = tiles
+        .into_iter()
+        .map(|(label, img)| (label, img.downsample(downsample)))
+        .collect();
     let exposure = match exposure {
         Some(stops) => Exposure::Shared { stops },
         None => Exposure::PerTile { percentile },

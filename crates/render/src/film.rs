@@ -33,6 +33,22 @@ impl Image {
         let n = self.pixels.len().max(1) as f64;
         Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32)
     }
+
+    /// The image averaged over `factor`×`factor` pixel blocks (a box filter; rows and columns
+    /// beyond the last whole block are left out). `factor` 0 or 1 returns a copy.
+    pub fn downsample(&self, factor: u32) -> Image {
+        let f = factor.max(1);
+        let (w, h) = (self.width / f, self.height / f);
+        let mut out = Image::new(w, h);
+        for y in 0..h * f {
+            for x in 0..w * f {
+                out.pixels[((y / f) * w + x / f) as usize] += self.pixels[(y * self.width + x) as usize];
+            }
+        }
+        let n = (f * f) as f32;
+        out.pixels.iter_mut().for_each(|p| *p /= n);
+        out
+    }
 }
 
 /// Per-pixel running sums of samples (and of their squares, for variance estimates), in f64 so
@@ -162,5 +178,23 @@ impl Film {
             height: self.height,
             pixels,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn downsample_averages_whole_blocks() {
+        let mut img = Image::new(5, 3);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            *p = Rgb::splat(i as f32);
+        }
+        let d = img.downsample(2);
+        assert_eq!((d.width, d.height), (2, 1));
+        // Block (0, 0) holds pixels 0, 1, 5, 6; block (1, 0) holds 2, 3, 7, 8.
+        assert_eq!(d.pixels, vec![Rgb::splat(3.0), Rgb::splat(5.0)]);
+        assert_eq!(img.downsample(1).pixels, img.pixels);
     }
 }
