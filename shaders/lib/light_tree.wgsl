@@ -226,8 +226,7 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
             let first = free_path(node.sigma_t, len);
             let start = fade_density(node.sigma_t, len, first) * cosine_line(alpha, beta, h, t0, lo_t, hi_t, 0.0, first);
             let floor = 1e-3 / max(d2, r * r);
-            let phase = phase_towards(node.g, dir, p - (a + dir * clamp(t0, 0.0, len)));
-            return node.weight * f * phase * max(max(closest, start), floor);
+            return node.weight * f * max(max(closest, start), floor);
         }
         let cp = c - p;
         let falloff = 1.0 / max(max(dot_glam(cp, cp), rb * rb), r * r);

@@ -25,8 +25,10 @@
 //! * a VBL's leaf: its own segment instead of its box. Its light's density along it, fading
 //!   like e^(−σt t), taken at the point closest to the receiver, times the falloff integrated
 //!   along the VBL (for a shading point the cosine-weighted falloff over the part above the
-//!   horizon; for a camera segment along both lines); or, if larger, the density at the end of
-//!   the VBL's first mean free path times the same integral over that first stretch.
+//!   horizon; for a camera segment along both lines, times both phase functions between the
+//!   two lines' closest points); or, if larger, the density at the end of the VBL's first mean
+//!   free path times the same integral over that first stretch. A VSL's leaf seen from a
+//!   camera segment gets the camera medium's phase function likewise.
 //!
 //! **Sampling.** A record descends from the root, choosing the left child with probability
 //! a/(a+b) of the children's importances; the product of the choices is the leaf's
@@ -704,9 +706,10 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
                     let start = fade_density(node.sigma_t, len, first) * cosine_line(0.0, first);
                     // A floor for rounding (and for the faint end beyond the clipped bounds).
                     let floor = 1e-3 / d2.max(r * r);
-                    // The VBL's phase function from its point closest to p towards p.
-                    let phase = phase_towards(node.g, dir, p - (a + dir * t0.clamp(0.0, len)));
-                    node.weight * f * phase * closest.max(start).max(floor)
+                    // (No phase function here: taken at the closest point alone it misjudges
+                    // VBLs that pass a shading point, whose light reaches it from along their
+                    // whole length; in the glossy-floor box it doubled the worst `Lsm` pixel.)
+                    node.weight * f * closest.max(start).max(floor)
                 }
                 None => {
                     let falloff = 1.0 / (c - p).length_squared().max(rb * rb).max(r * r);
