@@ -10,7 +10,7 @@
 //! above the horizon given 0) and correlated strata; it cannot see a bias smaller than about
 //! 4.5 standard errors, here 1–3 % of each component.
 mod common;
-use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, rng::pcg_hash};
+use beamlight_scene::{Rgb, Scene, rng::pcg_hash};
 use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
@@ -177,18 +177,7 @@ fn drawn_lights_match_all_pairs_in_a_fog_box() {
 
 #[test]
 fn drawn_lights_match_all_pairs_with_glossy_walls_and_forward_scattering() {
-    let mut scene = fog_box(8, 8, false);
-    for m in &mut scene.materials {
-        if m.name == "wall" {
-            m.bsdf = Some(Bsdf::Phong {
-                diffuse: Rgb::splat(0.2),
-                specular: Rgb::splat(0.6),
-                exponent: 80.0,
-            });
-        }
-    }
-    scene.media[0].g = 0.7;
-    selection_matches_all_pairs("glossy fog box", scene);
+    selection_matches_all_pairs("glossy fog box", glossy_fog_box(8, 8));
 }
 
 #[test]

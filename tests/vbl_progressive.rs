@@ -29,23 +29,6 @@ fn options(method: Method, w: u32, h: u32, passes: u64, paths: u32, seed: u32) -
     }
 }
 
-/// The fog box with glossy walls (Phong exponent 80) and a strongly forward-scattering medium
-/// (g = 0.7): the case the paper's VBLs are for.
-fn glossy_fog_box(w: u32, h: u32) -> Scene {
-    let mut scene = fog_box(w, h, false);
-    for m in &mut scene.materials {
-        if m.name == "wall" {
-            m.bsdf = Some(Bsdf::Phong {
-                diffuse: Rgb::splat(0.2),
-                specular: Rgb::splat(0.6),
-                exponent: 80.0,
-            });
-        }
-    }
-    scene.media[0].g = 0.7;
-    scene
-}
-
 #[test]
 fn vbl_components_converge_to_the_path_tracer() {
     let (w, h) = (4u32, 4u32);

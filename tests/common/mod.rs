@@ -335,6 +335,23 @@ pub fn fog_box(w: u32, h: u32, lumpy: bool) -> Scene {
     s
 }
 
+/// The fog box with glossy walls (Phong exponent 80) and a strongly forward-scattering medium
+/// (g = 0.7): the case the paper's VBLs are for.
+pub fn glossy_fog_box(w: u32, h: u32) -> Scene {
+    let mut scene = fog_box(w, h, false);
+    for m in &mut scene.materials {
+        if m.name == "wall" {
+            m.bsdf = Some(Bsdf::Phong {
+                diffuse: Rgb::splat(0.2),
+                specular: Rgb::splat(0.6),
+                exponent: 80.0,
+            });
+        }
+    }
+    scene.media[0].g = 0.7;
+    scene
+}
+
 /// Image means of the path tracer's components over `spp` samples per pixel.
 pub fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);

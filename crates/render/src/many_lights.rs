@@ -277,6 +277,9 @@ pub fn start_pass(
     let selection = match (beams_on, settings.light_samples) {
         (true, Some(k)) => Some(Selection {
             k: k.max(1),
+            r,
+            pair_seed: streams::pair_seed(seed),
+            pass,
             vsls: LightTree::over_vsls(&ts.scene, &lights.vpls),
             vbls: LightTree::over_vbls(&ts.scene, &lights.vrls),
         }),
@@ -327,11 +330,6 @@ pub fn start_pass(
     // ([`streams`]), which the GPU kernels draw from too.
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x7f4a_7c15, pass, (i as u32).wrapping_mul(2) + kind);
     let pair = |kind: GatherKind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
-    let drawn =
-        |kind: GatherKind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
-    let xi = |kind: GatherKind, i: usize| streams::selection_number(pair_seed, pass, kind, i as u32);
-    let descent =
-        |kind: GatherKind, i: usize| move |slot: u32| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
     let on_cpu = pending.is_none();
 
     // Each gather point against every virtual light: the sum over a light set divided by its
@@ -349,26 +347,12 @@ pub fn start_pass(
                     let rx = Receiver::at_point(&ts.scene, sp);
                     let (vsl, vbl_k) = (GatherKind::VplToSurface, GatherKind::VrlToSurface);
                     (
-                        timed_drawn(
-                            &mut t[Component::Lss as usize],
-                            &sel.vsls,
-                            &rx,
-                            r,
-                            sel.k,
-                            xi(vsl, i),
-                            descent(vsl, i),
-                            |slot, j| vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, &mut drawn(vsl, i, slot)),
-                        ),
-                        timed_drawn(
-                            &mut t[Component::Lsm as usize],
-                            &sel.vbls,
-                            &rx,
-                            r,
-                            sel.k,
-                            xi(vbl_k, i),
-                            descent(vbl_k, i),
-                            |slot, j| vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, &mut drawn(vbl_k, i, slot)),
-                        ),
+                        sel.timed_estimate(&mut t[Component::Lss as usize], &sel.vsls, &rx, vsl, i, |j, s| {
+                            vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s)
+                        }),
+                        sel.timed_estimate(&mut t[Component::Lsm as usize], &sel.vbls, &rx, vbl_k, i, |j, s| {
+                            vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s)
+                        }),
                     )
                 } else if beams_on {
                     (
@@ -413,26 +397,12 @@ pub fn start_pass(
                     let rx = Receiver::along_segment(&ts.scene, seg);
                     let (vsl, vbl_k) = (GatherKind::VplToMedia, GatherKind::VrlToMedia);
                     (
-                        timed_drawn(
-                            &mut t[Component::Lms as usize],
-                            &sel.vsls,
-                            &rx,
-                            r,
-                            sel.k,
-                            xi(vsl, i),
-                            descent(vsl, i),
-                            |slot, j| vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, &mut drawn(vsl, i, slot)),
-                        ),
-                        timed_drawn(
-                            &mut t[Component::Lmm as usize],
-                            &sel.vbls,
-                            &rx,
-                            r,
-                            sel.k,
-                            xi(vbl_k, i),
-                            descent(vbl_k, i),
-                            |slot, j| vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, &mut drawn(vbl_k, i, slot)),
-                        ),
+                        sel.timed_estimate(&mut t[Component::Lms as usize], &sel.vsls, &rx, vsl, i, |j, s| {
+                            vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s)
+                        }),
+                        sel.timed_estimate(&mut t[Component::Lmm as usize], &sel.vbls, &rx, vbl_k, i, |j, s| {
+                            vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s)
+                        }),
                     )
                 } else if beams_on {
                     (
@@ -515,25 +485,43 @@ fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: 
 /// One pass's light trees and the lights each record draws from each.
 struct Selection {
     k: u32,
+    /// The pass's VBL/VSL radius.
+    r: f32,
+    pair_seed: u32,
+    pass: u32,
     vsls: LightTree,
     vbls: LightTree,
 }
 
-/// [`LightTree::estimate`], its CPU time added to `seconds` (an empty tree is not timed).
-fn timed_drawn(
-    seconds: &mut f64,
-    tree: &LightTree,
-    rx: &Receiver,
-    r: f32,
-    k: u32,
-    xi: f32,
-    stream: impl Fn(u32) -> Sampler,
-    f: impl FnMut(u32, usize) -> Rgb,
-) -> Rgb {
-    if tree.is_empty() {
-        return Rgb::ZERO;
+impl Selection {
+    /// [`LightTree::estimate`] for record `record` of kind `kind` with its streams
+    /// ([`streams`]: the selection number, each slot's descent and drawn pair), `f(light,
+    /// stream)` the drawn light's contribution; its CPU time added to `seconds` (an empty
+    /// tree is not timed).
+    fn timed_estimate(
+        &self,
+        seconds: &mut f64,
+        tree: &LightTree,
+        rx: &Receiver,
+        kind: GatherKind,
+        record: usize,
+        mut f: impl FnMut(usize, &mut Sampler) -> Rgb,
+    ) -> Rgb {
+        if tree.is_empty() {
+            return Rgb::ZERO;
+        }
+        let (seed, pass, i) = (self.pair_seed, self.pass, record as u32);
+        timed(seconds, || {
+            tree.estimate(
+                rx,
+                self.r,
+                self.k,
+                streams::selection_number(seed, pass, kind, i),
+                |slot| streams::selection_sampler(seed, pass, kind, i, slot),
+                |slot, j| f(j, &mut streams::drawn_pair_sampler(seed, pass, kind, i, slot)),
+            )
+        })
     }
-    timed(seconds, || tree.estimate(rx, r, k, xi, stream, f))
 }
 
 /// Σ over a light set of each virtual light's contribution, `f(index, light)`, its CPU time
