@@ -97,7 +97,9 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, rnd);
+    let sigma_t = (mv.sigma_s + mv.sigma_a) * medium_density(vrl.medium, y);
+    let col = Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), sigma_t);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, col, rnd);
     let sigma_y = mv.sigma_s * medium_density(vrl.medium, y);
     let sigma_x = mc.sigma_s * medium_density(seg.medium, x);
     let t_vrl = transmittance(vrl.medium, ov, dv, u, s);

@@ -49,7 +49,9 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, rnd);
+    let sigma_t = (m.sigma_s + m.sigma_a) * medium_density(vrl.medium, y);
+    let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), sigma_t);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, col, rnd);
     if is_black(l_vsl) {
         return vec3<f32>(0.0);
     }

@@ -48,7 +48,9 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, rnd);
+    let sigma_t = (m.sigma_s + m.sigma_a) * medium_density(seg.medium, x);
+    let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, sigma_t);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, col, rnd);
     if is_black(l_vsl) {
         return vec3<f32>(0.0);
     }

@@ -15,7 +15,13 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, s
         return vec3<f32>(0.0);
     }
     let lobe = sharper(rx, light);
-    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, light, rnd);
+    var sigma_t = vec3<f32>(0.0);
+    if sp.medium != NO_MEDIUM {
+        let m = media[sp.medium];
+        sigma_t = (m.sigma_s + m.sigma_a) * medium_density(sp.medium, sp.pos);
+    }
+    let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, sigma_t);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, light, col, rnd);
     if is_black(l_vsl) {
         return vec3<f32>(0.0);
     }

@@ -192,8 +192,54 @@ fn cone_directions(cone: Cone, max_dirs: u32, scale: f32) -> u32 {
     return u32(n);
 }
 
-// `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') and `lobe` the sharper factor.
-fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, rnd: ConeRandom) -> vec3<f32> {
+// `vbl::Collection`: where along a gather ray a VSL's light is collected (its sheet: the VPL's
+// surface, or for a VBL point the plane perpendicular to ω'), and the plane through the
+// receiver that cuts the blur (a surface receiver's tangent plane, or the plane perpendicular to
+// ω' for a receiver in a medium).
+struct Collection {
+    origin: vec3<f32>,
+    has_plane: bool,
+    centre: vec3<f32>,
+    has_sheet: bool,
+    plane: vec3<f32>,
+    r: f32,
+    sheet: vec3<f32>,
+    sigma_t: vec3<f32>,
+}
+
+// `vbl::uncut_weight`: 1 / (the uncut fraction of the disc), in [1, 2].
+fn uncut_weight(height: f32, reach: f32) -> f32 {
+    if !(reach > 0.0) || height >= reach {
+        return 1.0;
+    }
+    let a = max(height / reach, 0.0);
+    let c = sqrt(1.0 - a * a);
+    // asin(a) as atan2(a, √(1 − a²)), with the twin of the CPU's accurate atan2.
+    let fraction = 0.5 + (a * c + precise_atan2(a, c)) * FRAC_1_PI;
+    return 1.0 / fraction;
+}
+
+// `Collection::weight`: e^(σt (d − t)) / (the uncut fraction of the ellipse) along ω' = w.
+fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
+    let to = col.centre - col.origin;
+    let n = select(w, col.plane, col.has_plane);
+    let m = select(w, col.sheet, col.has_sheet);
+    let wm = dot(w, m);
+    let wn = dot(w, n);
+    let height = dot(to, m) * wn * select(1.0, -1.0, wm < 0.0);
+    let reach = col.r * length_glam(n * wm - m * wn);
+    let t_c = dot(to, w);
+    var t_s = t_c;
+    if col.has_sheet && wm != 0.0 {
+        t_s = dot(to, m) / wm;
+    }
+    let t = min(max(t_s, t_c - col.r), t_c + col.r);
+    return exp(col.sigma_t * (length_glam(to) - t)) * uncut_weight(height, reach);
+}
+
+// `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') · collection_weight(col, ω') and
+// `lobe` the sharper factor.
+fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col: Collection, rnd: ConeRandom) -> vec3<f32> {
     let frame = frame_from_normal(cone.axis);
     let omega = TAU * cone.one_minus_cos;
     var sum = vec3<f32>(0.0);
@@ -203,7 +249,7 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, rnd
         for (var k = 0u; k < n; k++) {
             let local = uniform_cone_1mc(shifted_lattice(k, n, rnd.uniform), cone.one_minus_cos);
             let w = normalize_glam(to_world(frame, local));
-            sum += lobe_eval(fa, w) * lobe_eval(fb, w);
+            sum += lobe_eval(fa, w) * lobe_eval(fb, w) * collection_weight(col, w);
         }
         return sum * (cone.weight / f32(n));
     }
@@ -215,7 +261,7 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, rnd
         let local = uniform_cone_1mc(shifted_lattice(k, na, rnd.uniform), cone.one_minus_cos);
         let w = normalize_glam(to_world(frame, local));
         let denominator = f32(na) * p_uniform + f32(nb) * lobe_pdf(lobe, w);
-        sum += lobe_eval(fa, w) * lobe_eval(fb, w) / denominator;
+        sum += lobe_eval(fa, w) * lobe_eval(fb, w) * collection_weight(col, w) / denominator;
     }
     for (var k = 0u; k < nb; k++) {
         let pick = fract_trunc((f32(k) + 0.5) / f32(nb) + rnd.pick);
@@ -223,7 +269,7 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, rnd
         let w = ls.xyz;
         if ls.w != 0.0 && dot(w, cone.axis) >= cone.cos_max {
             let denominator = f32(na) * p_uniform + f32(nb) * lobe_pdf(lobe, w);
-            sum += lobe_eval(fa, w) * lobe_eval(fb, w) / denominator;
+            sum += lobe_eval(fa, w) * lobe_eval(fb, w) * collection_weight(col, w) / denominator;
         }
     }
     return finite_or_zero(sum * (cone.weight / omega));

@@ -325,6 +325,91 @@ fn integrate_cone(
     finite_or_zero(sum * (cone.weight / omega))
 }
 
+/// Where along a gather ray a VSL's light is collected, and what that changes (issue 19). The
+/// beam radiance estimate behind every VSL gathers, along a ray o + tω', the photons within R
+/// of it: it integrates the photon density blurred over discs of radius R perpendicular to the
+/// ray, each photon counted at the ray's point nearest to it. Two things follow that the VSL's
+/// cone integral alone does not do, and whose neglect made the blur lose light at every R:
+///
+/// **Transmittance to the collection point.** The ray's light is attenuated up to where it is
+/// collected, e^(−σt t) with t = (centre − origin)·ω', not up to the centre (the shadow ray's
+/// e^(−σt d), d = |centre − origin| ≥ t). Per direction the estimate is multiplied by
+/// e^(σt (d − t)), which lies in [1, e^(σt R)]; exact in a homogeneous medium (σt taken at the
+/// VSL centre), to first order in R otherwise. Without it, an infinite homogeneous medium lost
+/// about (σt R)²/2 of `Lmm` (6 % at σt R = 0.35, from numerical quadrature).
+///
+/// **Discs cut by a plane that hides the photons beyond it.** Where such a disc is cut, the
+/// blurred density falls below the density; renormalising by the uncut fraction of the disc (the
+/// boundary kernel of density estimation) makes the blur energy-preserving for a density that is
+/// smooth across the disc. Away from the plane the fraction is 1, so the estimator is unchanged
+/// there and converges as R → 0; the weight lies in [1, 2], since the disc centres a receiver's
+/// rays reach lie on the open side of the cut, so at least half of each disc survives.
+/// A photon is counted where the ray crosses its *sheet*: a surface VSL (a VPL) on its surface
+/// (normal `sheet`), a volume VSL (a point of a VBL) in the plane through it perpendicular to ω'
+/// (`sheet` = `None`). The disc projects onto the sheet as an ellipse, and the cut is a plane
+/// through the receiver `origin` with normal `plane`:
+/// * a surface receiver's tangent plane (`Lsm`, `Lss`): behind it nothing is visible from the
+///   receiver (the shadow ray starts on the viewer's side), so the discs near the start of every
+///   oblique ray lose their part behind the surface;
+/// * for a receiver in a medium, `plane` = `None`, the plane through it perpendicular to ω': the
+///   beam estimate counts only photons ahead of the receiver (t > 0), which for a sheet crossed
+///   within R of the receiver (`Lms` next to a wall) drops part of the ellipse. For a volume VSL
+///   (`Lmm`) the discs at t > 0 are never cut by that plane, and the weight is 1.
+///
+/// Where the ray leaves the medium through a wall, the discs are cut too, but the photons
+/// counted beyond the wall crossing (centre visibility) make up for it exactly at a plane wall,
+/// so only the cuts at the receiver's own end need a correction. Not corrected: a receiver in a
+/// medium within R of a wall (`Lmm`, `Lms` at the end of a camera segment), and a receiver
+/// within R of a second surface (a corner), where two cuts overlap and one is renormalised.
+#[derive(Clone, Copy, Debug)]
+struct Collection {
+    origin: Vec3,
+    centre: Vec3,
+    plane: Option<Vec3>,
+    sheet: Option<Vec3>,
+    r: f32,
+    /// Extinction near the VSL centre (zero outside media).
+    sigma_t: Rgb,
+}
+
+impl Collection {
+    /// The factor by which the light gathered along `w` differs from the VSL integrand with
+    /// the shadow ray's transmittance: e^(σt (d − t)) / (the uncut fraction of the ellipse).
+    fn weight(&self, w: Vec3) -> Rgb {
+        let to = self.centre - self.origin;
+        let n = self.plane.unwrap_or(w);
+        let m = self.sheet.unwrap_or(w);
+        let (wm, wn) = (w.dot(m), w.dot(n));
+        // The ray meets the sheet at t_s = to·m / (ω'·m), a signed height t_s (ω'·n) above the
+        // cut; the ellipse reaches R |n − (ω'·n)/(ω'·m) m| below it. Both are multiplied by
+        // |ω'·m| to stay finite at grazing sheets.
+        let height = to.dot(m) * wn * if wm < 0.0 { -1.0 } else { 1.0 };
+        let reach = self.r * (n * wm - m * wn).length();
+        // Light is collected at the sheet crossing, kept within R of the closest approach
+        // t_c = to·ω' (where a volume photon is collected): at grazing sheets the crossing runs
+        // off, and e^(σt (d − t_s)) would grow without bound.
+        let t_c = to.dot(w);
+        let t_s = if self.sheet.is_some() && wm != 0.0 { to.dot(m) / wm } else { t_c };
+        let t = t_s.max(t_c - self.r).min(t_c + self.r);
+        (self.sigma_t * (to.length() - t)).exp() * uncut_weight(height, reach)
+    }
+}
+
+/// 1 / (the fraction of a disc on the far side of a chord `height` from its centre on the near
+/// side, `reach` being the disc's extent across the chord): 1 where the chord misses the disc
+/// (height ≥ reach, and reach = 0 for a cut parallel to the sheet), 2 through its centre.
+/// A negative height is only met where the integrand is zero (the sheet crossing behind the
+/// receiver) and is taken as 0, so that the weight stays within [1, 2].
+#[inline]
+fn uncut_weight(height: f32, reach: f32) -> f32 {
+    if !(reach > 0.0) || height >= reach {
+        return 1.0;
+    }
+    let a = (height / reach).max(0.0);
+    let fraction = 0.5 + (a * (1.0 - a * a).sqrt() + a.asin()) * std::f32::consts::FRAC_1_PI;
+    fraction.recip()
+}
+
 /// A squared radius fit for use: NaN or negative → 0 (the VRL/VPL limit).
 #[inline]
 fn clean_r2(r2: f32) -> f32 {
@@ -567,7 +652,17 @@ pub fn vbl_to_surface(
     let Some(cone) = vsl_cone(p, y, r2, rx.n) else {
         return Rgb::ZERO;
     };
-    let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| rx.f_cos(w) * phase(w));
+    let collection = Collection {
+        origin: p,
+        centre: y,
+        plane: Some(rx.n),
+        sheet: None,
+        r: r2.sqrt(),
+        sigma_t: m.sigma_t() * m.density_at(y),
+    };
+    let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
+        rx.f_cos(w) * phase(w) * collection.weight(w)
+    });
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -633,8 +728,16 @@ pub fn vbl_to_media(
     let Some(cone) = vsl_cone(x, y, r2, -dc) else {
         return Rgb::ZERO;
     };
+    let collection = Collection {
+        origin: x,
+        centre: y,
+        plane: None,
+        sheet: None,
+        r,
+        sigma_t: mv.sigma_t() * mv.density_at(y),
+    };
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
-        Rgb::splat(phase_x(w) * phase_y(w))
+        collection.weight(w) * (phase_x(w) * phase_y(w))
     });
     let sigma_y = mv.sigma_s * mv.density_at(y);
     let sigma_x = mc.sigma_s * mc.density_at(x);
@@ -692,8 +795,16 @@ pub fn vsl_to_media(
     let Some(cone) = vsl_cone(x, q, r2, -d) else {
         return Rgb::ZERO;
     };
+    let collection = Collection {
+        origin: x,
+        centre: q,
+        plane: None,
+        sheet: Some(light.n),
+        r: r2.sqrt(),
+        sigma_t: m.sigma_t() * m.density_at(x),
+    };
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
-        light.f_cos(w) * phase(w)
+        light.f_cos(w) * phase(w) * collection.weight(w)
     });
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
@@ -725,8 +836,19 @@ pub fn vsl_to_surface(
         return Rgb::ZERO;
     };
     let lobe = sharper(rx.lobe(), light.lobe());
+    let collection = Collection {
+        origin: p,
+        centre: q,
+        plane: Some(rx.n),
+        sheet: Some(light.n),
+        r: r2.sqrt(),
+        sigma_t: sp.medium().map_or(Rgb::ZERO, |i| {
+            let m = &ts.scene.media[i as usize];
+            m.sigma_t() * m.density_at(p)
+        }),
+    };
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
-        rx.f_cos(w) * light.f_cos(w)
+        rx.f_cos(w) * light.f_cos(w) * collection.weight(w)
     });
     if l_vsl == Rgb::ZERO {
         return Rgb::ZERO;
