@@ -97,17 +97,19 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let sigma_t = (mv.sigma_s + mv.sigma_a) * medium_density(vrl.medium, y);
-    let col = Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), sigma_t);
-    let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, col, rnd);
     let sigma_y = mv.sigma_s * medium_density(vrl.medium, y);
     let sigma_x = mc.sigma_s * medium_density(seg.medium, x);
     let t_vrl = transmittance(vrl.medium, ov, dv, u, s);
     let t_cam = transmittance(seg.medium, oc, dc, t, s);
     let dist = length_glam(y - x);
     let tr = connect(x, y, dist, seg.medium, s);
+    if is_black(tr) {
+        return vec3<f32>(0.0);
+    }
+    let col = Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), tr);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, col, rnd);
     return finite_or_zero(
-        seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * tr * l_vsl / (pdf_u * pdf_t)
+        seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t)
     );
 }
 

@@ -49,19 +49,18 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let sigma_t = (m.sigma_s + m.sigma_a) * medium_density(vrl.medium, y);
-    let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), sigma_t);
-    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, col, rnd);
-    if is_black(l_vsl) {
-        return vec3<f32>(0.0);
-    }
     let sigma_s = m.sigma_s * medium_density(vrl.medium, y);
     let t_vrl = transmittance(vrl.medium, ov, dv, u, s);
     let dist = length_glam(y - p);
     // The shadow ray leaves on the viewer's side: a centre behind the surface is occluded.
     let origin = spawn_from_triangle(sp.tri, p, sp.wo);
     let tr = connect(origin, y, dist, sp.medium, s);
-    return finite_or_zero(sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl * tr / pdf);
+    if is_black(tr) {
+        return vec3<f32>(0.0);
+    }
+    let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), tr);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, col, rnd);
+    return finite_or_zero(sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf);
 }
 
 @compute @workgroup_size(64)

@@ -48,19 +48,18 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let sigma_t = (m.sigma_s + m.sigma_a) * medium_density(seg.medium, x);
-    let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, sigma_t);
-    let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, col, rnd);
-    if is_black(l_vsl) {
-        return vec3<f32>(0.0);
-    }
     let sigma_s = m.sigma_s * medium_density(seg.medium, x);
     let t_cam = transmittance(seg.medium, o, d, t, s);
     let dist = length_glam(q - x);
     // The VSL centre just off its surface, on the side its light arrived from.
     let target_point = spawn_from_triangle(vpl.tri, q, vpl.wi);
     let tr = connect(x, target_point, dist, seg.medium, s);
-    return finite_or_zero(seg.throughput * sigma_s * t_cam * vpl.power * l_vsl * tr / pdf);
+    if is_black(tr) {
+        return vec3<f32>(0.0);
+    }
+    let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, tr);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, col, rnd);
+    return finite_or_zero(seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf);
 }
 
 @compute @workgroup_size(64)

@@ -15,22 +15,17 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, s
         return vec3<f32>(0.0);
     }
     let lobe = sharper(rx, light);
-    var sigma_t = vec3<f32>(0.0);
-    if sp.medium != NO_MEDIUM {
-        let m = media[sp.medium];
-        sigma_t = (m.sigma_s + m.sigma_a) * medium_density(sp.medium, sp.pos);
-    }
-    let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, sigma_t);
-    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, light, col, rnd);
-    if is_black(l_vsl) {
-        return vec3<f32>(0.0);
-    }
     let origin = spawn_from_triangle(sp.tri, sp.pos, sp.wo);
     let dist = length_glam(vpl.pos - sp.pos);
     // The VSL centre just off its surface, on the side its light arrived from.
     let target_point = spawn_from_triangle(vpl.tri, vpl.pos, vpl.wi);
     let tr = connect(origin, target_point, dist, sp.medium, s);
-    return finite_or_zero(sp.throughput * vpl.power * l_vsl * tr);
+    if is_black(tr) {
+        return vec3<f32>(0.0);
+    }
+    let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, tr);
+    let l_vsl = integrate_cone(cone, params.directions, lobe, rx, light, col, rnd);
+    return finite_or_zero(sp.throughput * vpl.power * l_vsl);
 }
 
 @compute @workgroup_size(64)

@@ -204,7 +204,8 @@ struct Collection {
     plane: vec3<f32>,
     r: f32,
     sheet: vec3<f32>,
-    sigma_t: vec3<f32>,
+    // Transmittance × visibility from origin to centre (the shadow ray's).
+    transmittance: vec3<f32>,
 }
 
 // `vbl::uncut_weight`: 1 / (the uncut fraction of the disc), in [1, 2].
@@ -219,7 +220,13 @@ fn uncut_weight(height: f32, reach: f32) -> f32 {
     return 1.0 / fraction;
 }
 
-// `Collection::weight`: e^(σt (d − t)) / (the uncut fraction of the ellipse) along ω' = w.
+// `vbl::transmittance_share`: T^share per channel (0 stays 0).
+fn transmittance_share(tr: vec3<f32>, share: f32) -> vec3<f32> {
+    return select(vec3<f32>(0.0), exp(log(tr) * share), tr > vec3<f32>(0.0));
+}
+
+// `Collection::weight`: the transmittance to the collection point over the uncut fraction of the
+// ellipse, along ω' = w.
 fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
     let to = col.centre - col.origin;
     let n = select(w, col.plane, col.has_plane);
@@ -228,13 +235,16 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
     let wn = dot(w, n);
     let height = dot(to, m) * wn * select(1.0, -1.0, wm < 0.0);
     let reach = col.r * length_glam(n * wm - m * wn);
-    let t_c = dot(to, w);
-    var t_s = t_c;
+    var t = dot(to, w);
     if col.has_sheet && wm != 0.0 {
-        t_s = dot(to, m) / wm;
+        t = dot(to, m) / wm;
     }
-    let t = min(max(t_s, t_c - col.r), t_c + col.r);
-    return exp(col.sigma_t * (length_glam(to) - t)) * uncut_weight(height, reach);
+    let d = length_glam(to);
+    var share = 1.0;
+    if d > 0.0 {
+        share = max(t, 0.0) / d;
+    }
+    return transmittance_share(col.transmittance, share) * uncut_weight(height, reach);
 }
 
 // `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') · collection_weight(col, ω') and
