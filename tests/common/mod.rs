@@ -354,9 +354,65 @@ pub fn glossy_fog_box(w: u32, h: u32) -> Scene {
 
 /// Image means of the path tracer's components over `spp` samples per pixel.
 pub fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
-    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    pt_components_with_errors(ts, spp, seed).0
+}
+
+/// Image means of the path tracer's components over `spp` samples per pixel (a multiple of
+/// 16), with their standard errors from the means of 16 batches of passes.
+pub fn pt_components_with_errors(ts: &TraceScene, spp: u32, seed: u32) -> ([DVec3; 7], [DVec3; 7]) {
+    assert!(spp % 16 == 0, "spp must split into 16 batches");
+    let mut batches = BatchMeans::default();
     let mut sum = [DVec3::ZERO; 7];
-    for pass in 0..spp {
+    for batch in 0..16 {
+        let mut part = [DVec3::ZERO; 7];
+        pt_component_sums(ts, batch * spp / 16..(batch + 1) * spp / 16, seed, &mut part);
+        for (s, p) in sum.iter_mut().zip(&part) {
+            *s += *p;
+        }
+        let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+        batches.push(&part.map(|v| v / ((spp / 16) as f64 * (w * h) as f64)));
+    }
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    (sum.map(|v| v / (spp as f64 * (w * h) as f64)), batches.standard_errors())
+}
+
+/// Means of independent batches (of passes, or of seeds), per component, and the standard
+/// error of their overall mean (the batch means' standard deviation over √batches), per channel,
+/// so that a tolerance can scale with the noise actually present.
+#[derive(Default)]
+pub struct BatchMeans {
+    batches: Vec<[DVec3; 7]>,
+}
+
+impl BatchMeans {
+    pub fn push(&mut self, means: &[DVec3; 7]) {
+        self.batches.push(*means);
+    }
+
+    /// Records a render's progress: call with the cumulative component means after `passes`
+    /// passes at every batch boundary; the batch's own means are recovered from the running
+    /// sums (cumulative mean × passes).
+    pub fn push_cumulative(&mut self, cumulative: &[DVec3; 7], passes: u64, last: &mut ([DVec3; 7], u64)) {
+        let n = (passes - last.1) as f64;
+        let means = std::array::from_fn(|c| (cumulative[c] * passes as f64 - last.0[c] * last.1 as f64) / n);
+        self.push(&means);
+        *last = (*cumulative, passes);
+    }
+
+    pub fn standard_errors(&self) -> [DVec3; 7] {
+        let k = self.batches.len() as f64;
+        assert!(k >= 2.0, "need at least two batches");
+        std::array::from_fn(|c| {
+            let mean = self.batches.iter().map(|b| b[c]).sum::<DVec3>() / k;
+            let var = self.batches.iter().map(|b| (b[c] - mean) * (b[c] - mean)).sum::<DVec3>() / (k - 1.0);
+            (var / k).map(f64::sqrt)
+        })
+    }
+}
+
+fn pt_component_sums(ts: &TraceScene, passes: std::ops::Range<u32>, seed: u32, sum: &mut [DVec3; 7]) {
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    for pass in passes {
         for y in 0..h {
             for x in 0..w {
                 let mut s = Sampler::new(seed, pass, y * w + x);
@@ -375,7 +431,37 @@ pub fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
             }
         }
     }
-    sum.map(|v| v / (spp as f64 * (w * h) as f64))
+}
+
+/// Compares per-component image means with the path tracer's, each with its standard error:
+/// the worst channel's difference must be within `k` combined standard errors. What this can
+/// catch is a bias larger than k standard errors (printed); what it cannot is one below that.
+pub fn assert_components_within_errors(
+    label: &str,
+    (ours, ours_se): (&[DVec3; 7], &[DVec3; 7]),
+    (reference, reference_se): (&[DVec3; 7], &[DVec3; 7]),
+    components: &[Component],
+    k: f64,
+) {
+    let mut failed = Vec::new();
+    for &c in components {
+        let i = c as usize;
+        let (a, b) = (ours[i], reference[i]);
+        let se = (ours_se[i] * ours_se[i] + reference_se[i] * reference_se[i]).map(f64::sqrt);
+        let z = ((a - b) / se).abs().max_element();
+        eprintln!(
+            "{:>15}: {label} {a:.5} ± {:.5}, path tracer {b:.5} ± {:.5}: relative {:+.4}, z {z:.2}",
+            c.name(),
+            ours_se[i].max_element(),
+            reference_se[i].max_element(),
+            ((a - b) / b).x,
+        );
+        assert!(b.min_element() > 0.0, "{}: the scene must have some", c.name());
+        if !(z < k) {
+            failed.push(c.name());
+        }
+    }
+    assert!(failed.is_empty(), "{label}: {failed:?} beyond {k} standard errors");
 }
 
 /// Compares per-component image means with the path tracer's (`Component::ALL` order): prints
