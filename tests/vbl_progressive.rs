@@ -106,20 +106,56 @@ fn vbl_error_shrinks_as_passes_go_on() {
     assert!(at_4p < 0.7 * at_p, "error must shrink: {at_p} → {at_4p}");
 }
 
+/// The furnace's image mean and its standard error (batch means over 16 batches of passes).
+fn furnace_mean(ts: &TraceScene, opts: &RenderOptions) -> (DVec3, DVec3) {
+    let Budget::Passes(passes) = opts.budget else {
+        panic!("a pass budget")
+    };
+    let batch = passes / 16;
+    let (mut batches, mut last) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
+    let result = render(ts, opts, |progress| {
+        if progress.passes % batch == 0 {
+            let mut means = [DVec3::ZERO; 7];
+            means[0] = progress.film.image().mean().as_dvec3();
+            batches.push_cumulative(&means, progress.passes, &mut last);
+        }
+        true
+    })
+    .unwrap();
+    assert_eq!(result.film.rejected, 0);
+    (result.film.image().mean().as_dvec3(), batches.standard_errors()[0])
+}
+
+/// The furnace (emitting, half-reflecting walls around a non-absorbing medium) renders 2.0
+/// everywhere, so `vbl` must: the bundled asset (chromatic σs, g = 0.3) with default settings,
+/// and a grey furnace (σs = 1) at g = 0, 0.5 and 0.9 with the radius held at R0 (α = 0.99), the
+/// default 10 % of the diagonal (0.35), where the blur's light loss is largest (issue 19: the
+/// uncorrected blur gave 1.87 at g = 0.5). Judged by 4 standard errors of the image mean (batch
+/// means), so a loss of about 1–3 % (printed per case) fails. Not checked: the residual of
+/// about 1 % at R0 measured with many seeds (receivers within R of the wall their camera ray
+/// ends on, and near corners; docs/rendering.md), which is within these errors.
 #[test]
 fn vbl_furnace_converges_to_two() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/furnace.toml");
-    let ts = TraceScene::new(beamlight_scene::load::load_scene(&path).unwrap());
-    // With light selection a pass draws 4 lights per record and component instead of
-    // gathering all ~600 of 128 paths: 16× the passes for about the same time.
-    let result = render(&ts, &options(Method::Vbl, 8, 8, 768, 128, 4), |_| true).unwrap();
-    assert_eq!(result.film.rejected, 0);
-    let mean = result.film.image().mean();
-    eprintln!("vbl furnace mean {mean} in {:?}", result.elapsed);
-    assert!(
-        (mean - Rgb::splat(2.0)).abs().max_element() < 0.08,
-        "furnace mean {mean}"
-    );
+    let asset = TraceScene::new(beamlight_scene::load::load_scene(&path).unwrap());
+    let mut cases = vec![("asset, default settings".to_string(), asset, options(Method::Vbl, 8, 8, 768, 128, 4))];
+    for g in [0.0f32, 0.5, 0.9] {
+        let mut opts = options(Method::Vbl, 8, 8, 512, 64, 5);
+        opts.many_lights.alpha = 0.99;
+        let ts = TraceScene::new(furnace(Rgb::ONE, g, None));
+        opts.many_lights.radius = beamlight_render::many_lights::default_radius(&ts.scene);
+        cases.push((format!("σs = 1, g = {g}, R = R0"), ts, opts));
+    }
+    let mut failed = Vec::new();
+    for (name, ts, opts) in &cases {
+        let (mean, se) = furnace_mean(ts, opts);
+        let z = ((mean - DVec3::splat(2.0)) / se).abs().max_element();
+        eprintln!("vbl furnace, {name}: {mean:.4} ± {:.4} (z {z:.2})", se.max_element());
+        if !(z < 4.0) {
+            failed.push(name.clone());
+        }
+    }
+    assert!(failed.is_empty(), "furnace off 2.0 by more than 4 standard errors: {failed:?}");
 }
 
 /// The fog box (Lambert walls, g = 0.7) with a glossy floor (Phong exponent `n`): VRLs from the
