@@ -108,9 +108,7 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     }
     let col = Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), tr);
     let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, col, rnd);
-    return finite_or_zero(
-        seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t)
-    );
+    return seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t);
 }
 
 @compute @workgroup_size(64)
@@ -121,10 +119,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let seg = media_segments[i];
     var sum = vec3<f32>(0.0);
+    var discarded = 0u;
     if params.light_samples == 0u {
         for (var j = 0u; j < params.lights; j++) {
             var s = pair_sampler(KIND_VRL_TO_MEDIA, i, j);
-            sum += vbl_to_media(seg, vrls[j], &s);
+            sum += admit(vbl_to_media(seg, vrls[j], &s), &discarded);
         }
     } else if params.vbl_tree_nodes > 0u {
         // Light selection: `light_samples` lights drawn from the pass's tree, each over its
@@ -135,10 +134,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, KIND_VRL_TO_MEDIA, i, k, xi);
             if pick.found {
                 var s = drawn_pair_sampler(KIND_VRL_TO_MEDIA, i, k);
-                sum += vbl_to_media(seg, vrls[pick.light], &s) / pick.pmf;
+                sum += admit(vbl_to_media(seg, vrls[pick.light], &s), &discarded) / pick.pmf;
             }
         }
         sum = sum / f32(params.light_samples);
     }
-    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+    let total = admit(sum * params.scale, &discarded);
+    gathered[i] = vec4<f32>(total, f32(discarded));
 }

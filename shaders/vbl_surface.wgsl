@@ -60,7 +60,7 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     }
     let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), tr);
     let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, col, rnd);
-    return finite_or_zero(sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf);
+    return sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf;
 }
 
 @compute @workgroup_size(64)
@@ -72,13 +72,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sp = shading_points[i];
     let f_sp = point_bsdfs[i];
     var sum = vec3<f32>(0.0);
+    var discarded = 0u;
     // `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
     if f_sp.kind != BSDF_NONE {
         let rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
         if params.light_samples == 0u {
             for (var j = 0u; j < params.lights; j++) {
                 var s = pair_sampler(KIND_VRL_TO_SURFACE, i, j);
-                sum += vbl_to_surface(sp, rx, vrls[j], &s);
+                sum += admit(vbl_to_surface(sp, rx, vrls[j], &s), &discarded);
             }
         } else if params.vbl_tree_nodes > 0u {
             // Light selection: `light_samples` lights drawn from the pass's tree, each over its
@@ -89,11 +90,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, KIND_VRL_TO_SURFACE, i, k, xi);
                 if pick.found {
                     var s = drawn_pair_sampler(KIND_VRL_TO_SURFACE, i, k);
-                    sum += vbl_to_surface(sp, rx, vrls[pick.light], &s) / pick.pmf;
+                    sum += admit(vbl_to_surface(sp, rx, vrls[pick.light], &s), &discarded) / pick.pmf;
                 }
             }
             sum = sum / f32(params.light_samples);
         }
     }
-    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+    let total = admit(sum * params.scale, &discarded);
+    gathered[i] = vec4<f32>(total, f32(discarded));
 }

@@ -42,9 +42,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let seg = media_segments[i];
     var sum = vec3<f32>(0.0);
+    var discarded = 0u;
     for (var j = 0u; j < params.lights; j++) {
         var s = pair_sampler(KIND_VPL_TO_MEDIA, i, j);
-        sum += vpl_to_media(seg, vpls[j], vpl_bsdfs[j], &s);
+        sum += admit(vpl_to_media(seg, vpls[j], vpl_bsdfs[j], &s), &discarded);
     }
-    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+    let total = admit(sum * params.scale, &discarded);
+    gathered[i] = vec4<f32>(total, f32(discarded));
 }

@@ -43,9 +43,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sp = shading_points[i];
     let f_sp = point_bsdfs[i];
     var sum = vec3<f32>(0.0);
+    var discarded = 0u;
     for (var j = 0u; j < params.lights; j++) {
         var s = pair_sampler(KIND_VRL_TO_SURFACE, i, j);
-        sum += vrl_to_surface(sp, f_sp, vrls[j], &s);
+        sum += admit(vrl_to_surface(sp, f_sp, vrls[j], &s), &discarded);
     }
-    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+    let total = admit(sum * params.scale, &discarded);
+    gathered[i] = vec4<f32>(total, f32(discarded));
 }

@@ -59,7 +59,7 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     }
     let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, tr);
     let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, col, rnd);
-    return finite_or_zero(seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf);
+    return seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf;
 }
 
 @compute @workgroup_size(64)
@@ -70,10 +70,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let seg = media_segments[i];
     var sum = vec3<f32>(0.0);
+    var discarded = 0u;
     if params.light_samples == 0u {
         for (var j = 0u; j < params.lights; j++) {
             var s = pair_sampler(KIND_VPL_TO_MEDIA, i, j);
-            sum += vsl_to_media(seg, vpls[j], vpl_bsdfs[j], &s);
+            sum += admit(vsl_to_media(seg, vpls[j], vpl_bsdfs[j], &s), &discarded);
         }
     } else if params.vsl_tree_nodes > 0u {
         // Light selection: `light_samples` lights drawn from the pass's tree, each over its
@@ -84,10 +85,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let pick = tree_sample_slot(0u, receiver, KIND_VPL_TO_MEDIA, i, k, xi);
             if pick.found {
                 var s = drawn_pair_sampler(KIND_VPL_TO_MEDIA, i, k);
-                sum += vsl_to_media(seg, vpls[pick.light], vpl_bsdfs[pick.light], &s) / pick.pmf;
+                sum += admit(vsl_to_media(seg, vpls[pick.light], vpl_bsdfs[pick.light], &s), &discarded) / pick.pmf;
             }
         }
         sum = sum / f32(params.light_samples);
     }
-    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+    let total = admit(sum * params.scale, &discarded);
+    gathered[i] = vec4<f32>(total, f32(discarded));
 }

@@ -25,7 +25,7 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, s
     }
     let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, tr);
     let l_vsl = integrate_cone(cone, params.directions, lobe, rx, light, col, rnd);
-    return finite_or_zero(sp.throughput * vpl.power * l_vsl);
+    return sp.throughput * vpl.power * l_vsl;
 }
 
 @compute @workgroup_size(64)
@@ -37,13 +37,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sp = shading_points[i];
     let f_sp = point_bsdfs[i];
     var sum = vec3<f32>(0.0);
+    var discarded = 0u;
     // `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
     if f_sp.kind != BSDF_NONE {
         let rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
         if params.light_samples == 0u {
             for (var j = 0u; j < params.lights; j++) {
                 var s = pair_sampler(KIND_VPL_TO_SURFACE, i, j);
-                sum += vsl_to_surface(sp, rx, vpls[j], vpl_bsdfs[j], &s);
+                sum += admit(vsl_to_surface(sp, rx, vpls[j], vpl_bsdfs[j], &s), &discarded);
             }
         } else if params.vsl_tree_nodes > 0u {
             // Light selection: `light_samples` lights drawn from the pass's tree, each over its
@@ -54,11 +55,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 let pick = tree_sample_slot(0u, receiver, KIND_VPL_TO_SURFACE, i, k, xi);
                 if pick.found {
                     var s = drawn_pair_sampler(KIND_VPL_TO_SURFACE, i, k);
-                    sum += vsl_to_surface(sp, rx, vpls[pick.light], vpl_bsdfs[pick.light], &s) / pick.pmf;
+                    sum += admit(vsl_to_surface(sp, rx, vpls[pick.light], vpl_bsdfs[pick.light], &s), &discarded) / pick.pmf;
                 }
             }
             sum = sum / f32(params.light_samples);
         }
     }
-    gathered[i] = vec4<f32>(sum * params.scale, 0.0);
+    let total = admit(sum * params.scale, &discarded);
+    gathered[i] = vec4<f32>(total, f32(discarded));
 }

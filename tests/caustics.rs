@@ -186,6 +186,7 @@ fn all_components_add_up_to_the_path_tracers_image() {
     };
     let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
+    assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
     let ours: Vec<DVec3> = result.components.iter().map(|f| f.image().mean().as_dvec3()).collect();
     // The caustics are tested with proper statistics above; at this photon count they are only
     // roughly right (a surface caustic is 2 % of the image).

@@ -45,6 +45,7 @@ fn components_match(lumpy: bool) {
     };
     let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
+    assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
     let ours: Vec<DVec3> = result.components.iter().map(|f| f.image().mean().as_dvec3()).collect();
     let beauty = result.film.image().mean().as_dvec3();
     assert!(
@@ -143,6 +144,7 @@ fn vrl_furnace_converges_to_two() {
     };
     let result = render(&ts, &opts, |_| true).unwrap();
     assert_eq!(result.film.rejected, 0);
+    assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
     let mean = result.film.image().mean();
     eprintln!("vrl furnace mean {mean} in {:?}", result.elapsed);
     for (c, f) in Component::ALL.iter().zip(&result.components) {

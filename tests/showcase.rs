@@ -51,8 +51,14 @@ fn options(method: Method, (width, height): (u32, u32), budget: Budget, seed: u3
 }
 
 /// Every layer of the result is finite and non-negative.
+/// Every layer finite and non-negative, no sample dropped by a film, and no estimate discarded
+/// on the way (`many_lights::admit`: a NaN or sign bug would otherwise only show as missing
+/// light).
 fn assert_sane(r: &RenderResult, what: &str) {
+    let discarded = r.discarded();
+    assert!(discarded.iter().all(|&n| n == 0), "{what}: estimates discarded per component {discarded:?}");
     for (k, film) in std::iter::once(&r.film).chain(&r.components).enumerate() {
+        assert_eq!(film.rejected, 0, "{what}: layer {k} dropped non-finite samples");
         for p in film.image().pixels {
             assert!(
                 p.is_finite() && p.min_element() >= 0.0,

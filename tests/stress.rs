@@ -83,7 +83,12 @@ fn options(method: Method, w: u32, passes: u64, gpu: Option<Arc<GpuBackend>>) ->
     }
 }
 
+/// No NaN, ∞ or negative value in any layer, none dropped by the film, and none discarded by
+/// the estimators' guard on the way (`many_lights::admit`, which would otherwise turn a NaN or
+/// sign bug into quietly missing light).
 fn assert_finite(what: &str, r: &RenderResult) {
+    let discarded = r.discarded();
+    assert!(discarded.iter().all(|&n| n == 0), "{what}: estimates discarded per component {discarded:?}");
     assert_eq!(r.film.rejected, 0, "{what}: non-finite samples reached the film");
     for (k, f) in std::iter::once(&r.film).chain(&r.components).enumerate() {
         assert_eq!(f.rejected, 0, "{what}: layer {k} dropped non-finite samples");
@@ -91,6 +96,11 @@ fn assert_finite(what: &str, r: &RenderResult) {
             assert!(p.is_finite() && p.min_element() >= 0.0, "{what}: layer {k} has {p}");
         }
     }
+}
+
+/// Finite and non-negative: what an estimate must be before anything cleans it.
+fn sane(v: glam::Vec3) -> bool {
+    v.is_finite() && v.min_element() >= 0.0
 }
 
 /// g × σt × albedo (50 media), each with a Phong exponent from 1 to 10⁵, by every method on
@@ -275,17 +285,17 @@ fn degenerate_virtual_light_geometry_stays_finite() {
         for (j, v) in vrls.iter().enumerate() {
             let a = vrl::vrl_to_surface(&ts, &sp, v, 0.0, &mut s(GatherKind::VrlToSurface, 0, j));
             let b = vbl::vbl_to_surface(&ts, &sp, v, r2, &settings, &mut s(GatherKind::VrlToSurface, 0, j));
-            assert!(a.is_finite() && b.is_finite(), "VRL {j} at the shading point: {a} {b}");
+            assert!(sane(a) && sane(b), "VRL {j} at the shading point: {a} {b}");
             for (i, c) in segments.iter().enumerate() {
                 let a = vrl::vrl_to_media(&ts, c, v, 0.0, &mut s(GatherKind::VrlToMedia, i, j));
                 let b = vbl::vbl_to_media(&ts, c, v, r2, &settings, &mut s(GatherKind::VrlToMedia, i, j));
-                assert!(a.is_finite() && b.is_finite(), "VRL {j}, segment {i}, R² {r2}: {a} {b}");
+                assert!(sane(a) && sane(b), "VRL {j}, segment {i}, R² {r2}: {a} {b}");
             }
         }
         for (i, c) in segments.iter().enumerate() {
             let a = vpl::vpl_to_media(&ts, c, &vpls[0], 0.0, &mut s(GatherKind::VplToMedia, i, 0));
             let b = vbl::vsl_to_media(&ts, c, &vpls[0], r2, &settings, &mut s(GatherKind::VplToMedia, i, 0));
-            assert!(a.is_finite() && b.is_finite(), "VPL, segment {i}: {a} {b}");
+            assert!(sane(a) && sane(b), "VPL, segment {i}: {a} {b}");
         }
         let a = vpl::vpl_to_surface(&ts, &sp, &vpls[0], 0.0, &mut s(GatherKind::VplToSurface, 0, 0));
         let b = vbl::vsl_to_surface(
@@ -296,7 +306,7 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             &settings,
             &mut s(GatherKind::VplToSurface, 0, 0),
         );
-        assert!(a.is_finite() && b.is_finite(), "VPL at the shading point: {a} {b}");
+        assert!(sane(a) && sane(b), "VPL at the shading point: {a} {b}");
     }
     // The GPU kernels on the same records.
     let Some(_) = beamlight_gpu::device::for_tests() else {
@@ -325,8 +335,9 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             .unwrap();
         for k in GatherKernel::ALL {
             for v in &g.results[k as usize] {
-                assert!(v.is_finite(), "{} with R² {r2}: {v}", k.name());
+                assert!(sane(*v), "{} with R² {r2}: {v}", k.name());
             }
+            assert_eq!(g.discarded[k as usize], 0, "{} with R² {r2}: discarded estimates", k.name());
         }
     }
 }

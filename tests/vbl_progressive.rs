@@ -54,6 +54,7 @@ fn vbl_components_converge_to_the_path_tracer() {
     })
     .unwrap();
     assert_eq!(result.film.rejected, 0);
+    assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
     eprintln!("vbl: {} passes in {:?}", result.passes, result.elapsed);
     let ours: [DVec3; 7] = std::array::from_fn(|c| result.components[c].image().mean().as_dvec3());
     let components = [
@@ -123,6 +124,7 @@ fn furnace_mean(ts: &TraceScene, opts: &RenderOptions) -> (DVec3, DVec3) {
     })
     .unwrap();
     assert_eq!(result.film.rejected, 0);
+    assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
     (result.film.image().mean().as_dvec3(), batches.standard_errors()[0])
 }
 
@@ -138,7 +140,11 @@ fn furnace_mean(ts: &TraceScene, opts: &RenderOptions) -> (DVec3, DVec3) {
 fn vbl_furnace_converges_to_two() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/furnace.toml");
     let asset = TraceScene::new(beamlight_scene::load::load_scene(&path).unwrap());
-    let mut cases = vec![("asset, default settings".to_string(), asset, options(Method::Vbl, 8, 8, 768, 128, 4))];
+    let mut cases = vec![(
+        "asset, default settings".to_string(),
+        asset,
+        options(Method::Vbl, 8, 8, 768, 128, 4),
+    )];
     for g in [0.0f32, 0.5, 0.9] {
         let mut opts = options(Method::Vbl, 8, 8, 512, 64, 5);
         opts.many_lights.alpha = 0.99;
@@ -155,7 +161,10 @@ fn vbl_furnace_converges_to_two() {
             failed.push(name.clone());
         }
     }
-    assert!(failed.is_empty(), "furnace off 2.0 by more than 4 standard errors: {failed:?}");
+    assert!(
+        failed.is_empty(),
+        "furnace off 2.0 by more than 4 standard errors: {failed:?}"
+    );
 }
 
 /// The fog box (Lambert walls, g = 0.7) with a glossy floor (Phong exponent `n`): VRLs from the

@@ -108,6 +108,20 @@ fn falloff(d2: f32) -> f32 {
     return 1.0 / max(d2, params.clamp * params.clamp);
 }
 
+// `many_lights::admit`: what may enter an accumulator. `v` when it is finite and non-negative;
+// otherwise it counts in `discarded` (returned to the CPU in the record's w) and only its finite
+// non-negative part passes.
+fn admit(v: vec3<f32>, discarded: ptr<function, u32>) -> vec3<f32> {
+    if finite_vec3(v) && min(v.x, min(v.y, v.z)) >= 0.0 {
+        return v;
+    }
+    *discarded += 1u;
+    if finite_vec3(v) {
+        return max(v, vec3<f32>(0.0));
+    }
+    return vec3<f32>(0.0);
+}
+
 fn is_black(c: vec3<f32>) -> bool {
     return all(c == vec3<f32>(0.0));
 }

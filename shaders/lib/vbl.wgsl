@@ -13,11 +13,6 @@ fn clean_r2(r2: f32) -> f32 {
     return select(0.0, r2, r2 > 0.0);
 }
 
-// `vbl::finite_or_zero`.
-fn finite_or_zero(c: vec3<f32>) -> vec3<f32> {
-    return select(vec3<f32>(0.0), max(c, vec3<f32>(0.0)), finite_vec3(c));
-}
-
 // `vbl::Cone`: the gather directions from a receiver whose rays pass within R of a VSL centre.
 struct Cone {
     axis: vec3<f32>,
@@ -282,7 +277,7 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col
             sum += lobe_eval(fa, w) * lobe_eval(fb, w) * collection_weight(col, w) / denominator;
         }
     }
-    return finite_or_zero(sum * (cone.weight / omega));
+    return sum * (cone.weight / omega);
 }
 
 // `vbl::vertex_count`: vertices for an angle range `extent` of an integrand varying on the

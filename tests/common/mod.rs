@@ -373,7 +373,10 @@ pub fn pt_components_with_errors(ts: &TraceScene, spp: u32, seed: u32) -> ([DVec
         batches.push(&part.map(|v| v / ((spp / 16) as f64 * (w * h) as f64)));
     }
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
-    (sum.map(|v| v / (spp as f64 * (w * h) as f64)), batches.standard_errors())
+    (
+        sum.map(|v| v / (spp as f64 * (w * h) as f64)),
+        batches.standard_errors(),
+    )
 }
 
 /// Means of independent batches (of passes, or of seeds), per component, and the standard
@@ -404,7 +407,12 @@ impl BatchMeans {
         assert!(k >= 2.0, "need at least two batches");
         std::array::from_fn(|c| {
             let mean = self.batches.iter().map(|b| b[c]).sum::<DVec3>() / k;
-            let var = self.batches.iter().map(|b| (b[c] - mean) * (b[c] - mean)).sum::<DVec3>() / (k - 1.0);
+            let var = self
+                .batches
+                .iter()
+                .map(|b| (b[c] - mean) * (b[c] - mean))
+                .sum::<DVec3>()
+                / (k - 1.0);
             (var / k).map(f64::sqrt)
         })
     }

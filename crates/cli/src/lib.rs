@@ -466,7 +466,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             && last_write.elapsed().as_secs_f64() >= every
             && write_error.is_none()
         {
-            write_error = outputs.write(p.film, p.components, p.film.samples, p.elapsed).err();
+            write_error = outputs.write(p.film, p.components, &p.discarded, p.elapsed).err();
             last_write = Instant::now();
         }
         if let Some(path) = &args.checkpoint
@@ -488,7 +488,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     if let Some(e) = write_error {
         return Err(e.context("writing an intermediate image or checkpoint"));
     }
-    outputs.write(&result.film, &result.components, result.film.samples, result.elapsed)?;
+    outputs.write(&result.film, &result.components, &result.discarded(), result.elapsed)?;
     if let Some(path) = &accum_path {
         accumulators(&result.film, &result.components).write(path)?;
     }
@@ -497,6 +497,12 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         eprintln!(
             "warning: {} non-finite samples were dropped (please report this scene)",
             result.film.rejected
+        );
+    }
+    if result.discarded().iter().any(|&n| n > 0) {
+        eprintln!(
+            "warning: estimates that were NaN, infinite or negative were discarded ({}; please report this scene)",
+            discarded_summary(&result.discarded())
         );
     }
     if args.stats {
@@ -656,6 +662,16 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
     })
 }
 
+/// Discarded estimates per component, e.g. "Lsm 0, Lmm 3": every component, in order.
+fn discarded_summary(discarded: &[u64]) -> String {
+    Component::ALL
+        .iter()
+        .zip(discarded)
+        .map(|(c, n)| format!("{} {n}", c.name()))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// The `--stats` timeline summary: per pass, how long the CPU and the GPU were busy and how
 /// long the CPU waited. With a GPU, one pass is in flight: the CPU traces and estimates pass
 /// i + 1 while the GPU gathers pass i, so busy times can add up to more than the wall time.
@@ -696,6 +712,10 @@ fn print_stats(times: &[PassTimes]) {
             100.0 * gpu / wall.max(1e-9)
         );
     }
+    eprintln!(
+        "  discarded estimates (NaN, ∞ or < 0): {}",
+        discarded_summary(&beamlight_render::progressive::discarded(times))
+    );
 }
 
 /// The `--stats-json` record: what a benchmark needs to know about a run's time. Component
@@ -719,6 +739,7 @@ fn stats_json(
         _ => VirtualLights::Rays,
     });
     let gpu_component = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
+    let discarded = result.discarded();
     let mut components = serde_json::Map::new();
     for (k, c) in Component::ALL.iter().enumerate() {
         let gpu: f64 = kernels
@@ -733,6 +754,7 @@ fn stats_json(
                 "needed": needed.contains(c),
                 "cpu_seconds": total(&|t| t.component_cpu[k]),
                 "gpu_seconds": gpu,
+                "discarded": discarded[k],
             }),
         );
     }
@@ -764,8 +786,9 @@ struct Outputs<'a> {
 
 impl Outputs<'_> {
     /// Writes the EXR (beauty + component layers) and the preview, each atomically.
-    fn write(&self, film: &Film, components: &[Film], passes: u64, elapsed: Duration) -> Result<()> {
+    fn write(&self, film: &Film, components: &[Film], discarded: &[u64], elapsed: Duration) -> Result<()> {
         let args = self.args;
+        let passes = film.samples;
         let image = film.image();
         let metadata = [
             ("beamlight.method", self.method.name().to_string()),
@@ -776,6 +799,7 @@ impl Outputs<'_> {
             ("beamlight.scene", args.scene.display().to_string()),
             ("beamlight.backend", self.backend.to_string()),
             ("beamlight.rejected_samples", film.rejected.to_string()),
+            ("beamlight.discarded_estimates", discarded_summary(discarded)),
         ];
         let layers: Vec<(Component, beamlight_render::Image)> = Component::ALL
             .iter()

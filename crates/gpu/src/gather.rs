@@ -179,12 +179,14 @@ impl GatherInputs<'_> {
     }
 }
 
-/// Per gather record, each kernel's estimate (empty for kernels not run), and the GPU time
-/// each kernel took (0 without timestamp queries or when not run).
+/// Per gather record, each kernel's estimate (empty for kernels not run), the GPU time each
+/// kernel took (0 without timestamp queries or when not run), and how many estimates each
+/// discarded (the WGSL `admit`: NaN, infinite or negative, counted per record in its w).
 #[derive(Clone, Debug, Default)]
 pub struct Gathered {
     pub results: [Vec<Rgb>; KERNELS],
     pub kernel_seconds: [f64; KERNELS],
+    pub discarded: [u64; KERNELS],
 }
 
 pub struct Gathers {
@@ -442,7 +444,9 @@ impl PendingGathers {
         let mut gathered = Gathered::default();
         let mut at = 0;
         for (k, n) in self.layout {
-            gathered.results[k as usize] = values[at..at + n].iter().map(|v| Rgb::new(v[0], v[1], v[2])).collect();
+            let records = &values[at..at + n];
+            gathered.results[k as usize] = records.iter().map(|v| Rgb::new(v[0], v[1], v[2])).collect();
+            gathered.discarded[k as usize] = records.iter().map(|v| v[3] as u64).sum();
             at += n;
         }
         for (k, seconds) in self.timed.into_iter().zip(self.timer.read(gpu)?) {

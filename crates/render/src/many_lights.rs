@@ -151,7 +151,7 @@ pub fn paths_squared_radius(r0: f32, alpha: f32, paths: u32, pass: u32) -> f32 {
 const N: usize = Component::ALL.len();
 
 /// Where a pass's time went: CPU tracing and estimating, and GPU kernel time (from timestamp
-/// queries; zero on the CPU backend).
+/// queries; zero on the CPU backend); and what its estimators had to discard.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PassTimes {
     /// Camera paths, light paths and the photon/beam maps.
@@ -169,6 +169,24 @@ pub struct PassTimes {
     /// in [`Component::ALL`] order. A component whose records or virtual lights are empty
     /// (no media segments, no VRLs in a scene without media) is not timed: it stays at 0.
     pub component_cpu: [f64; N],
+    /// Estimates discarded per component ([`admit`]: NaN, infinite or negative; on the CPU
+    /// and the GPU alike), in [`Component::ALL`] order. Zero in a sane scene: anything else is
+    /// a bug or a numerical breakdown that would otherwise only show as missing light.
+    pub discarded: [u64; N],
+}
+
+/// What may enter an accumulator: `v` when it is finite and non-negative; otherwise it counts
+/// in `discarded` and only its finite non-negative part passes (0 for NaN or ∞, negative
+/// channels raised to 0). Every virtual-light and caustic estimate goes through this, once per
+/// drawn pair and once per record, on the CPU and (as `admit` in `shaders/lib/gather.wgsl`)
+/// on the GPU.
+#[inline]
+pub fn admit(v: Rgb, discarded: &mut u64) -> Rgb {
+    if v.is_finite() && v.min_element() >= 0.0 {
+        return v;
+    }
+    *discarded += 1;
+    if v.is_finite() { v.max(Rgb::ZERO) } else { Rgb::ZERO }
 }
 
 /// The GPU kernels of these settings' method, in (Lss, Lsm, Lms, Lmm) order.
@@ -218,6 +236,7 @@ impl PassInFlight {
                 for (&pixel, v) in pixels.iter().zip(&g.results[kernel as usize]) {
                     self.out[component as usize][pixel as usize] += *v;
                 }
+                self.times.discarded[component as usize] += g.discarded[kernel as usize];
             }
         }
         for (dst, src) in out.iter_mut().zip(&self.out) {
@@ -316,12 +335,13 @@ pub fn start_pass(
     // Direct light: the gather's camera sample and `direct_samples − 1` more of its own.
     let direct_samples = settings.direct_samples.max(1);
     let direct = &mut out[Component::Direct as usize];
-    direct_light(ts, &gather, seed, pass, direct);
+    let mut discarded = direct_light(ts, &gather, seed, pass, direct);
     for k in 1..direct_samples {
         let seed_k = direct_seed(seed, k);
         let extra = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed_k, pass);
-        direct_light(ts, &extra, seed_k, pass, direct);
+        discarded += direct_light(ts, &extra, seed_k, pass, direct);
     }
+    times.discarded[Component::Direct as usize] = discarded;
     let scale = 1.0 / direct_samples as f32;
     direct.iter_mut().for_each(|v| *v *= scale);
     times.component_cpu[Component::Direct as usize] =
@@ -335,56 +355,74 @@ pub fn start_pass(
     // Each gather point against every virtual light: the sum over a light set divided by its
     // path count M is the per-pass estimate.
     let (clamp, vbl) = (settings.clamp, &settings.vbl);
-    let at_points: Vec<(u32, [Rgb; N], [f64; N])> = gather
+    let at_points: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = gather
         .shading_points
         .par_iter()
         .enumerate()
         .map(|(i, sp)| {
             let mut c = [Rgb::ZERO; N];
             let mut t = [0f64; N];
+            let mut dp = [0u64; N];
             if on_cpu {
                 let (lss, lsm) = if let Some(sel) = &selection {
                     let rx = Receiver::at_point(&ts.scene, sp);
                     let (vsl, vbl_k) = (GatherKind::VplToSurface, GatherKind::VrlToSurface);
                     (
                         sel.timed_estimate(&mut t[Component::Lss as usize], &sel.vsls, &rx, vsl, i, |j, s| {
-                            vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s)
+                            admit(
+                                vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s),
+                                &mut dp[Component::Lss as usize],
+                            )
                         }),
                         sel.timed_estimate(&mut t[Component::Lsm as usize], &sel.vbls, &rx, vbl_k, i, |j, s| {
-                            vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s)
+                            admit(
+                                vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s),
+                                &mut dp[Component::Lsm as usize],
+                            )
                         }),
                     )
                 } else if beams_on {
                     (
                         timed_sum(&mut t[Component::Lss as usize], &lights.vpls, |j, v| {
-                            vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j))
+                            admit(
+                                vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j)),
+                                &mut dp[Component::Lss as usize],
+                            )
                         }),
                         timed_sum(&mut t[Component::Lsm as usize], &lights.vrls, |j, v| {
-                            vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VrlToSurface, i, j))
+                            admit(
+                                vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VrlToSurface, i, j)),
+                                &mut dp[Component::Lsm as usize],
+                            )
                         }),
                     )
                 } else {
                     (
                         timed_sum(&mut t[Component::Lss as usize], &lights.vpls, |j, v| {
-                            vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VplToSurface, i, j))
+                            admit(
+                                vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VplToSurface, i, j)),
+                                &mut dp[Component::Lss as usize],
+                            )
                         }),
                         timed_sum(&mut t[Component::Lsm as usize], &lights.vrls, |j, v| {
-                            vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VrlToSurface, i, j))
+                            admit(
+                                vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VrlToSurface, i, j)),
+                                &mut dp[Component::Lsm as usize],
+                            )
                         }),
                     )
                 };
-                c[Component::Lss as usize] = lss / m;
-                c[Component::Lsm as usize] = lsm / m;
+                c[Component::Lss as usize] = admit(lss / m, &mut dp[Component::Lss as usize]);
+                c[Component::Lsm as usize] = admit(lsm / m, &mut dp[Component::Lsm as usize]);
             }
             if !photons.is_empty() {
-                c[Component::CausticSurface as usize] = timed(&mut t[Component::CausticSurface as usize], || {
-                    photons.radiance(ts, sp) / m_photons
-                });
+                let k = Component::CausticSurface as usize;
+                c[k] = admit(timed(&mut t[k], || photons.radiance(ts, sp) / m_photons), &mut dp[k]);
             }
-            (sp.pixel, c, t)
+            (sp.pixel, c, t, dp)
         })
         .collect();
-    let along_segments: Vec<(u32, [Rgb; N], [f64; N])> = gather
+    let along_segments: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = gather
         .media_segments
         .par_iter()
         .enumerate()
@@ -392,52 +430,74 @@ pub fn start_pass(
             let mut s = stream(1, i);
             let mut c = [Rgb::ZERO; N];
             let mut t = [0f64; N];
+            let mut dp = [0u64; N];
             if on_cpu {
                 let (lms, lmm) = if let Some(sel) = &selection {
                     let rx = Receiver::along_segment(&ts.scene, seg);
                     let (vsl, vbl_k) = (GatherKind::VplToMedia, GatherKind::VrlToMedia);
                     (
                         sel.timed_estimate(&mut t[Component::Lms as usize], &sel.vsls, &rx, vsl, i, |j, s| {
-                            vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s)
+                            admit(
+                                vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s),
+                                &mut dp[Component::Lms as usize],
+                            )
                         }),
                         sel.timed_estimate(&mut t[Component::Lmm as usize], &sel.vbls, &rx, vbl_k, i, |j, s| {
-                            vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s)
+                            admit(
+                                vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s),
+                                &mut dp[Component::Lmm as usize],
+                            )
                         }),
                     )
                 } else if beams_on {
                     (
                         timed_sum(&mut t[Component::Lms as usize], &lights.vpls, |j, v| {
-                            vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j))
+                            admit(
+                                vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j)),
+                                &mut dp[Component::Lms as usize],
+                            )
                         }),
                         timed_sum(&mut t[Component::Lmm as usize], &lights.vrls, |j, v| {
-                            vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VrlToMedia, i, j))
+                            admit(
+                                vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VrlToMedia, i, j)),
+                                &mut dp[Component::Lmm as usize],
+                            )
                         }),
                     )
                 } else {
                     (
                         timed_sum(&mut t[Component::Lms as usize], &lights.vpls, |j, v| {
-                            vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VplToMedia, i, j))
+                            admit(
+                                vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VplToMedia, i, j)),
+                                &mut dp[Component::Lms as usize],
+                            )
                         }),
                         timed_sum(&mut t[Component::Lmm as usize], &lights.vrls, |j, v| {
-                            vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VrlToMedia, i, j))
+                            admit(
+                                vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VrlToMedia, i, j)),
+                                &mut dp[Component::Lmm as usize],
+                            )
                         }),
                     )
                 };
-                c[Component::Lms as usize] = lms / m;
-                c[Component::Lmm as usize] = lmm / m;
+                c[Component::Lms as usize] = admit(lms / m, &mut dp[Component::Lms as usize]);
+                c[Component::Lmm as usize] = admit(lmm / m, &mut dp[Component::Lmm as usize]);
             }
             if !beams.is_empty() {
-                c[Component::CausticVolume as usize] = timed(&mut t[Component::CausticVolume as usize], || {
-                    beams.radiance(ts, seg, &mut s) / m_beams
-                });
+                let k = Component::CausticVolume as usize;
+                c[k] = admit(
+                    timed(&mut t[k], || beams.radiance(ts, seg, &mut s) / m_beams),
+                    &mut dp[k],
+                );
             }
-            (seg.pixel, c, t)
+            (seg.pixel, c, t, dp)
         })
         .collect();
-    for (pixel, c, t) in at_points.into_iter().chain(along_segments) {
+    for (pixel, c, t, dp) in at_points.into_iter().chain(along_segments) {
         for (k, v) in c.into_iter().enumerate() {
             out[k][pixel as usize] += v;
             times.component_cpu[k] += t[k];
+            times.discarded[k] += dp[k];
         }
     }
     times.cpu_estimates = clock.elapsed();
@@ -459,8 +519,8 @@ fn direct_seed(seed: u32, k: u32) -> u32 {
 
 /// Adds one camera sample's direct light to `out`, per pixel: emission seen directly (also
 /// through specular chains) and next-event estimation at each of its records, whose streams
-/// are keyed by `seed`.
-fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: &mut [Rgb]) {
+/// are keyed by `seed`. Returns how many estimates it discarded ([`admit`]).
+fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: &mut [Rgb]) -> u64 {
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind);
     for (o, e) in out.iter_mut().zip(&gather.emitted) {
         *o += *e;
@@ -477,9 +537,11 @@ fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: 
         .enumerate()
         .map(|(i, seg)| (seg.pixel, direct::direct_in_medium(ts, seg, &mut stream(1, i))))
         .collect();
+    let mut discarded = 0;
     for (pixel, v) in at_points.into_iter().chain(along_segments) {
-        out[pixel as usize] += v;
+        out[pixel as usize] += admit(v, &mut discarded);
     }
+    discarded
 }
 
 /// One pass's light trees and the lights each record draws from each.

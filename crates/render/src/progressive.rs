@@ -79,6 +79,24 @@ pub struct RenderResult {
     pub pass_times: Vec<PassTimes>,
 }
 
+impl RenderResult {
+    /// Estimates discarded per component over the render ([`PassTimes::discarded`]).
+    pub fn discarded(&self) -> [u64; Component::ALL.len()] {
+        discarded(&self.pass_times)
+    }
+}
+
+/// Estimates discarded per component over `passes` ([`PassTimes::discarded`]).
+pub fn discarded(passes: &[PassTimes]) -> [u64; Component::ALL.len()] {
+    let mut total = [0u64; Component::ALL.len()];
+    for t in passes {
+        for (sum, d) in total.iter_mut().zip(t.discarded) {
+            *sum += d;
+        }
+    }
+    total
+}
+
 /// The state of a render after a pass, handed to the caller (progress display, intermediate
 /// images).
 pub struct Progress<'a> {
@@ -89,6 +107,8 @@ pub struct Progress<'a> {
     /// Per-component films (empty unless `RenderOptions::components`).
     pub components: &'a [Film],
     pub elapsed: Duration,
+    /// Estimates discarded so far, per component ([`PassTimes::discarded`]).
+    pub discarded: [u64; Component::ALL.len()],
 }
 
 /// Renders until the budget is spent, calling `on_pass` after each pass; when it returns
@@ -168,6 +188,7 @@ pub fn render_from(
     };
     let mut passes = 0u64;
     let mut pass_times = Vec::new();
+    let mut discarded_so_far = [0u64; Component::ALL.len()];
     // Passes started; with the many-light methods one pass is in flight (its GPU gathers
     // running) while the next one is traced and estimated on the CPU.
     let mut started_passes = 0u64;
@@ -231,6 +252,9 @@ pub fn render_from(
                 .map_err(|e| format!("pass {done_pass} on the GPU: {e}"))?;
             times.wall = last_finish.elapsed();
             last_finish = Instant::now();
+            for (sum, d) in discarded_so_far.iter_mut().zip(times.discarded) {
+                *sum += d;
+            }
             pass_times.push(times);
             for (i, px) in buffer.iter_mut().enumerate() {
                 *px = many_light_buffers.iter().map(|b| b[i]).sum();
@@ -257,6 +281,7 @@ pub fn render_from(
             film: &film,
             components: &components,
             elapsed: started.elapsed(),
+            discarded: discarded_so_far,
         });
         if !go_on {
             // A pass still in flight is dropped unfinished.

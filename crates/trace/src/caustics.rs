@@ -76,8 +76,8 @@ impl<'a> PhotonMap<'a> {
             }
             sum += bsdf.eval(wo, frame.to_local(Vec3::from(p.wi))) * Rgb::from(p.power);
         });
-        let l = Rgb::from(sp.throughput) * sum / (PI * self.r2);
-        if l.is_finite() { l } else { Rgb::ZERO }
+        // Not cleaned: the caller counts what it must discard (`many_lights::admit`).
+        Rgb::from(sp.throughput) * sum / (PI * self.r2)
     }
 }
 
@@ -148,8 +148,7 @@ impl BeamMap {
             let t_cam = media::transmittance(m, oc, dc, t, s);
             sum += Rgb::from(b.power) * t_beam * sigma_s * t_cam * (phase * (t1 - t0));
         });
-        let l = Rgb::from(seg.throughput) * sum / (PI * self.r2);
-        if l.is_finite() { l } else { Rgb::ZERO }
+        Rgb::from(seg.throughput) * sum / (PI * self.r2)
     }
 }
 

@@ -66,7 +66,10 @@
 //!
 //! The VSL integral uses `directions` directions uniform in the cone, one shifted rank-1
 //! lattice per evaluation (unbiased, evenly spread for any count). Every function returns the
-//! radiance per light path traced (divide a set's sum by its path count) and is never NaN/Inf.
+//! radiance per light path traced (divide a set's sum by its path count). Nothing here hides a
+//! NaN, an infinity or a negative value: the caller admits each estimate into its accumulator
+//! and counts what it has to discard (`many_lights::admit`), so a sign or NaN bug shows as a
+//! count, not as lost energy.
 use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
@@ -322,7 +325,7 @@ fn integrate_cone(
         }
     }
     // Ω / (πR²) over Ω: the kernel 1/(πR²).
-    finite_or_zero(sum * (cone.weight / omega))
+    sum * (cone.weight / omega)
 }
 
 /// Where along a gather ray a VSL's light is collected, and what that changes (issue 19). The
@@ -388,7 +391,11 @@ impl Collection {
         let reach = self.r * (n * wm - m * wn).length();
         // A volume photon is collected at the closest approach, a surface photon where the ray
         // crosses its surface (never behind the receiver; beyond the centre at grazing rays).
-        let t = if self.sheet.is_some() && wm != 0.0 { to.dot(m) / wm } else { to.dot(w) };
+        let t = if self.sheet.is_some() && wm != 0.0 {
+            to.dot(m) / wm
+        } else {
+            to.dot(w)
+        };
         let d = to.length();
         let share = if d > 0.0 { t.max(0.0) / d } else { 1.0 };
         transmittance_share(self.transmittance, share) * uncut_weight(height, reach)
@@ -421,11 +428,6 @@ fn uncut_weight(height: f32, reach: f32) -> f32 {
 #[inline]
 fn clean_r2(r2: f32) -> f32 {
     if r2 > 0.0 { r2 } else { 0.0 }
-}
-
-#[inline]
-fn finite_or_zero(c: Rgb) -> Rgb {
-    if c.is_finite() { c.max(Rgb::ZERO) } else { Rgb::ZERO }
 }
 
 /// Where a scattering function at a surface peaks, as an outgoing direction on the side of
@@ -679,7 +681,7 @@ pub fn vbl_to_surface(
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         rx.f_cos(w) * phase(w) * collection.weight(w)
     });
-    finite_or_zero(Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * l_vsl / pdf)
+    Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * l_vsl / pdf
 }
 
 /// Light a VBL scatters into a camera media segment (`Lmm`, eq. 10), per light path traced.
@@ -755,9 +757,7 @@ pub fn vbl_to_media(
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         collection.weight(w) * (phase_x(w) * phase_y(w))
     });
-    finite_or_zero(
-        Rgb::from(seg.throughput) * Rgb::from(vrl.power) * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t),
-    )
+    Rgb::from(seg.throughput) * Rgb::from(vrl.power) * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t)
 }
 
 /// Light a surface VSL (a VPL inflated to radius R) scatters into a camera media segment
@@ -822,7 +822,7 @@ pub fn vsl_to_media(
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         light.f_cos(w) * phase(w) * collection.weight(w)
     });
-    finite_or_zero(Rgb::from(seg.throughput) * sigma_s * t_cam * Rgb::from(vpl.power) * l_vsl / pdf)
+    Rgb::from(seg.throughput) * sigma_s * t_cam * Rgb::from(vpl.power) * l_vsl / pdf
 }
 
 /// Light a surface VSL sends to a camera shading point (`Lss`, §3.4; Hašan et al. 2009):
@@ -862,7 +862,7 @@ pub fn vsl_to_surface(
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         rx.f_cos(w) * light.f_cos(w) * collection.weight(w)
     });
-    finite_or_zero(Rgb::from(sp.throughput) * Rgb::from(vpl.power) * l_vsl)
+    Rgb::from(sp.throughput) * Rgb::from(vpl.power) * l_vsl
 }
 
 #[cfg(test)]
@@ -1126,8 +1126,17 @@ mod tests {
                     "{} R {r}: exact {:.6}, corrected {ours:.6} ± {se:.6} (z {z:.1}), uncorrected {before:.6} (z {z_before:.1})",
                     case.name, case.exact
                 );
-                assert!(z.abs() < 4.0, "{} R {r}: {ours} ± {se} against {}", case.name, case.exact);
-                assert!(z_before.abs() > 8.0, "{} R {r}: the uncorrected blur must fail here", case.name);
+                assert!(
+                    z.abs() < 4.0,
+                    "{} R {r}: {ours} ± {se} against {}",
+                    case.name,
+                    case.exact
+                );
+                assert!(
+                    z_before.abs() > 8.0,
+                    "{} R {r}: the uncorrected blur must fail here",
+                    case.name
+                );
             }
         }
     }
