@@ -1,5 +1,6 @@
 //! End-to-end tests of the `beamlight` binary: bundled scenes render to finite, readable EXRs
 //! with metadata; broken scenes fail with a clear message and leave no output behind.
+mod common;
 use beamlight_render::output::read_exr;
 use std::{
     path::{Path, PathBuf},
@@ -418,36 +419,10 @@ fn vrl_renders_the_fog_box_and_a_caustic_scene_with_their_components() {
     assert!(stderr(&o).contains("--clamp-distance"), "{}", stderr(&o));
     // A glass ball in fog under a lamp: the caustics (photon mapping and photon beams) appear
     // in their own layers.
-    let gltf = dir.path().join("glass.gltf");
-    let mut b = beamlight_scene::gltf_writer::GltfBuilder::new();
-    let glass = b.material(beamlight_scene::gltf_writer::MaterialDesc::glass("Glass", 1.5));
-    let (p, i) = beamlight_scene::gltf_writer::shapes::uv_sphere(glam::Vec3::ZERO, 0.5, 8, 16);
-    b.mesh("Ball", &p, &i, None, Some(glass));
-    let floor = b.material(beamlight_scene::gltf_writer::MaterialDesc::lambert("Floor", [0.7; 3]));
-    let (p, i) = beamlight_scene::gltf_writer::shapes::quad(
-        glam::Vec3::new(-2.0, -0.6, 2.0),
-        glam::Vec3::new(4.0, 0.0, 0.0),
-        glam::Vec3::new(0.0, 0.0, -4.0),
-    );
-    b.mesh("Floor", &p, &i, None, Some(floor));
-    b.point_light("Lamp", glam::Vec3::new(0.0, 2.0, 0.0), [1.0; 3], 10.0);
-    b.camera_look_at(
-        "Camera",
-        glam::Vec3::new(0.0, 0.0, 3.0),
-        glam::Vec3::ZERO,
-        glam::Vec3::Y,
-        0.8,
-        None,
-    );
-    b.write_gltf(&gltf).unwrap();
-    std::fs::write(
-        dir.path().join("glass.toml"),
-        "gltf = \"glass.gltf\"\n[[media]]\nname = \"fog\"\nregion = \"global\"\nsigma_s = 0.2\nsigma_a = 0.01\n",
-    )
-    .unwrap();
+    let glass = common::write_glass_ball_scene(dir.path());
     let o = beamlight(&[
         "render",
-        dir.path().join("glass.toml").to_str().unwrap(),
+        glass.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
         "--method",
