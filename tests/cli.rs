@@ -254,38 +254,43 @@ fn time_budget_renders_whole_passes() {
 }
 
 /// `--write-every` keeps a readable image on disk while rendering: a render killed with
-/// SIGKILL leaves the last complete EXR, never a torn one.
+/// SIGKILL leaves the last complete EXR, never a torn one. The test waits for events (the
+/// first image appearing, then being replaced by one with more passes), each with a generous
+/// deadline, not for a time window, so a loaded machine slows it down but cannot fail it.
 #[test]
 fn write_every_leaves_a_readable_image_when_killed() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("w.exr");
     let scene = root().join("assets/scenes/cornell_fog.toml");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_beamlight"))
-        .args([
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--method",
-            "pt",
-            "--time",
-            "60",
-            "--width",
-            "48",
-            "--height",
-            "48",
-            "--write-every",
-            "0.05",
-        ])
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    // Kill it at a few moments after the first image appeared: each time the file on disk
-    // must be a whole image, with more passes as time goes on.
-    let started = std::time::Instant::now();
-    while !out.exists() {
-        assert!(started.elapsed().as_secs() < 60, "no intermediate image was written");
+    let mut child = KillOnDrop(
+        Command::new(env!("CARGO_BIN_EXE_beamlight"))
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--method",
+                "pt",
+                "--time",
+                "600",
+                "--width",
+                "48",
+                "--height",
+                "48",
+                "--write-every",
+                "0.05",
+            ])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let deadline = std::time::Instant::now() + EVENT_TIMEOUT;
+    let wait = |what: &str| {
+        assert!(std::time::Instant::now() < deadline, "{what} within {EVENT_TIMEOUT:?}");
         std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    while !out.exists() {
+        wait("an intermediate image was written");
     }
     let spp = |p: &Path| -> u64 {
         let (img, meta) = read_exr(p).unwrap();
@@ -297,19 +302,38 @@ fn write_every_leaves_a_readable_image_when_killed() {
             .parse()
             .unwrap()
     };
+    // Every read while the render rewrites the file finds a whole image.
     let first = spp(&out);
-    std::thread::sleep(std::time::Duration::from_millis(700));
-    child.kill().unwrap(); // SIGKILL on Unix: no chance to finish a write
-    child.wait().unwrap();
+    let mut second = first;
+    while second == first {
+        wait("the intermediate image was replaced by one with more passes");
+        second = spp(&out);
+    }
+    assert!(second > first, "passes went backwards: {first} → {second}");
+    child.0.kill().unwrap(); // SIGKILL on Unix: no chance to finish a write
+    child.0.wait().unwrap();
     let last = spp(&out);
-    assert!(
-        last > first,
-        "the image must be rewritten as passes accumulate ({first} → {last})"
-    );
+    assert!(last >= second, "the image lost passes: {second} → {last}");
     let o = render(&scene, &out, &["--spp", "1", "--write-every", "0"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--write-every"), "{}", stderr(&o));
 }
+
+/// A running render that is killed when the test ends, also by a failed assertion (which
+/// would otherwise leave it rendering, holding the test harness's output open).
+struct KillOnDrop(std::process::Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// How long the tests that wait for a running render's events (a progress line, a file) wait
+/// for each before failing: far beyond what they take on an idle machine (well under a
+/// second), so only a hung render fails them.
+const EVENT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
 
 #[test]
 fn a_scene_without_lights_is_reported() {
@@ -692,24 +716,65 @@ fn resumed_render_equals_uninterrupted() {
     assert!(!p("x.exr").exists());
 }
 
-/// Ctrl-C (SIGINT) finishes the current pass, writes the image and exits with 130.
+/// Ctrl-C (SIGINT) finishes the current pass, writes the image and exits with 130. The signal
+/// is sent once the render says on stderr that its first pass is done (so the handler is in
+/// place and a pass has been accumulated), not after a fixed sleep.
 #[test]
 fn interrupt_writes_the_image() {
+    use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("i.exr");
-    let child = Command::new(env!("CARGO_BIN_EXE_beamlight"))
-        .args(small_render(&out, &["--passes", "100000"]))
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let mut child = KillOnDrop(
+        Command::new(env!("CARGO_BIN_EXE_beamlight"))
+            .args(small_render(&out, &["--passes", "100000"]))
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    // Stderr line by line on a channel, so the wait for the progress line can time out.
+    let (lines, received) = std::sync::mpsc::channel();
+    let reader = std::io::BufReader::new(child.0.stderr.take().unwrap());
+    let reading = std::thread::spawn(move || {
+        for line in reader.lines().map_while(Result::ok) {
+            let _ = lines.send(line);
+        }
+    });
+    let mut seen = Vec::new();
+    let deadline = std::time::Instant::now() + EVENT_TIMEOUT;
+    loop {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        match received.recv_timeout(left) {
+            Ok(line) => {
+                let progress = line.starts_with("pass 1/100000 done");
+                seen.push(line);
+                if progress {
+                    break;
+                }
+            }
+            Err(e) => {
+                panic!("no progress line within {EVENT_TIMEOUT:?} ({e}); stderr: {seen:#?}");
+            }
+        }
+    }
     let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args(["-INT", &child.0.id().to_string()])
         .status()
         .unwrap();
     assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    let status = loop {
+        if let Some(status) = child.0.try_wait().unwrap() {
+            break status;
+        }
+        if std::time::Instant::now() > deadline {
+            panic!("the render did not stop within {EVENT_TIMEOUT:?} of SIGINT");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    reading.join().unwrap();
+    seen.extend(received.try_iter());
+    let text = seen.join("\n");
+    assert_eq!(status.code(), Some(130), "{text}");
+    assert!(text.contains("interrupted:"), "{text}");
     let (img, meta) = read_exr(&out).unwrap();
     assert!(img.pixels.iter().all(|p| p.is_finite()));
     let spp: u64 = meta
