@@ -493,3 +493,39 @@ pub fn assert_components_match(
         assert!(rel < tolerance(c), "{}: {label} {a} vs path tracer {b}", c.name());
     }
 }
+
+/// Writes a small scene with every transport component to `dir` (`glass.gltf` and
+/// `glass.toml`, returned): a glass ball (IOR 1.5) above a Lambert floor under a point lamp, in
+/// a global fog, with a back wall, so the caustics (through the ball onto the floor, and into the fog) have light
+/// as well as direct light and the four virtual-light gathers.
+pub fn write_glass_ball_scene(dir: &std::path::Path) -> std::path::PathBuf {
+    use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
+    let mut b = GltfBuilder::new();
+    let glass = b.material(MaterialDesc::glass("Glass", 1.5));
+    let (p, i) = shapes::uv_sphere(Vec3::ZERO, 0.5, 8, 16);
+    b.mesh("Ball", &p, &i, None, Some(glass));
+    let floor = b.material(MaterialDesc::lambert("Floor", [0.7; 3]));
+    let (p, i) = shapes::quad(
+        Vec3::new(-2.0, -0.6, 2.0),
+        Vec3::new(4.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -4.0),
+    );
+    b.mesh("Floor", &p, &i, None, Some(floor));
+    // A back wall, lit by light bounced off the floor (which a flat floor cannot give itself).
+    let (p, i) = shapes::quad(
+        Vec3::new(-2.0, -0.6, -1.5),
+        Vec3::new(4.0, 0.0, 0.0),
+        Vec3::new(0.0, 3.0, 0.0),
+    );
+    b.mesh("Wall", &p, &i, None, Some(floor));
+    b.point_light("Lamp", Vec3::new(0.0, 2.0, 0.0), [1.0; 3], 10.0);
+    b.camera_look_at("Camera", Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 0.8, None);
+    b.write_gltf(&dir.join("glass.gltf")).unwrap();
+    let toml = dir.join("glass.toml");
+    std::fs::write(
+        &toml,
+        "gltf = \"glass.gltf\"\n[[media]]\nname = \"fog\"\nregion = \"global\"\nsigma_s = 0.2\nsigma_a = 0.01\n",
+    )
+    .unwrap();
+    toml
+}

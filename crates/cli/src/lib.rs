@@ -287,6 +287,9 @@ pub fn main() -> ExitCode {
 
 const DEFAULT_PASSES: u64 = 64;
 
+/// The shortest time between two progress lines when standard error is not a terminal.
+const PROGRESS_EVERY: Duration = Duration::from_secs(10);
+
 fn render(args: RenderArgs, start: Instant) -> Result<()> {
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new()
@@ -451,6 +454,11 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     runs::catch_interrupts();
     let startup = start.elapsed();
     let bar = progress_bar(&budget);
+    // Without a terminal (a log file, a batch job, a test) the bar is hidden: a plain line after
+    // the first pass (the render is under way, Ctrl-C is handled) and then at most one every
+    // `PROGRESS_EVERY`.
+    let log_progress = !std::io::stderr().is_terminal();
+    let mut last_progress_line: Option<Instant> = None;
     let outputs = Outputs {
         args: &args,
         method,
@@ -462,6 +470,15 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     let mut write_error = None;
     let result = beamlight_render::render_from(&ts, &opts, resumed.as_ref(), |p| {
         bar.set_position(p.passes);
+        if log_progress && last_progress_line.is_none_or(|t| t.elapsed() >= PROGRESS_EVERY) {
+            eprintln!(
+                "pass {}{} done after {:.1} s",
+                p.passes,
+                p.total.map_or(String::new(), |n| format!("/{n}")),
+                p.elapsed.as_secs_f64()
+            );
+            last_progress_line = Some(Instant::now());
+        }
         if let Some(every) = args.write_every
             && last_write.elapsed().as_secs_f64() >= every
             && write_error.is_none()
