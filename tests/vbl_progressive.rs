@@ -244,8 +244,20 @@ fn vbl_has_no_singular_pixels_where_vrl_does() {
     );
     assert!(worst_vrl > 6.0, "the scene must show VRL singularities ({worst_vrl})");
     assert!(worst_vbl < 0.6 * worst_vrl, "vbl {worst_vbl} vs vrl {worst_vrl}");
+    // Light selection multiplies each drawn pair by 1/(K p), and the tree's importance starves
+    // some VBLs that dominate a glossy pixel (a long VBL whose far end lies in the Phong lobe,
+    // drawn with p ≈ 5·10⁻³ where it carries most of the pixel: its subtree's box bound loses
+    // to compact clusters nearer the point). Issue 19's boundary correction raised the light
+    // of VSLs within R of the floor by up to 2×, and these draws with it: the drawn worst pixel
+    // went from 6.6 to 8.9 (all pairs 4.9 to 5.3), so the bound against `vrl` is 0.7 here
+    // (it was 0.6), and the selection may at most double the all-pairs worst pixel.
     assert!(
-        worst_drawn < 0.6 * worst_vrl,
+        worst_drawn < 0.7 * worst_vrl,
         "vbl drawing lights {worst_drawn} vs vrl {worst_vrl}"
     );
+    assert!(
+        worst_drawn < 2.0 * worst_vbl,
+        "vbl drawing lights {worst_drawn} vs all pairs {worst_vbl}"
+    );
 }
+
