@@ -418,6 +418,52 @@ impl BatchMeans {
     }
 }
 
+/// A render's image means with standard errors from batch means over `batches` equal batches
+/// of its passes (a pass budget divisible by `batches`): per component (when
+/// `RenderOptions::components`) and for the whole image.
+pub struct MeansWithErrors {
+    pub result: beamlight_render::RenderResult,
+    pub components: [DVec3; 7],
+    pub component_errors: [DVec3; 7],
+    pub image: DVec3,
+    pub image_error: DVec3,
+}
+
+pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -> MeansWithErrors {
+    let Budget::Passes(passes) = opts.budget else {
+        panic!("batch means need a pass budget")
+    };
+    assert!(passes % batches == 0, "{passes} passes do not split into {batches} batches");
+    let batch = passes / batches;
+    // Slot 0..7: the components; the image is tracked apart in the same way.
+    let (mut parts, mut last_parts) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
+    let (mut whole, mut last_whole) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
+    let result = render(ts, opts, |progress| {
+        if progress.passes % batch == 0 {
+            let means: [DVec3; 7] = std::array::from_fn(|c| {
+                progress.components.get(c).map_or(DVec3::ZERO, |f| f.image().mean().as_dvec3())
+            });
+            parts.push_cumulative(&means, progress.passes, &mut last_parts);
+            let mut image = [DVec3::ZERO; 7];
+            image[0] = progress.film.image().mean().as_dvec3();
+            whole.push_cumulative(&image, progress.passes, &mut last_whole);
+        }
+        true
+    })
+    .unwrap();
+    let components = std::array::from_fn(|c| {
+        result.components.get(c).map_or(DVec3::ZERO, |f| f.image().mean().as_dvec3())
+    });
+    let image = result.film.image().mean().as_dvec3();
+    MeansWithErrors {
+        result,
+        components,
+        component_errors: parts.standard_errors(),
+        image,
+        image_error: whole.standard_errors()[0],
+    }
+}
+
 fn pt_component_sums(ts: &TraceScene, passes: std::ops::Range<u32>, seed: u32, sum: &mut [DVec3; 7]) {
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     for pass in passes {
