@@ -261,3 +261,4 @@ fn vbl_has_no_singular_pixels_where_vrl_does() {
     );
 }
 
+
