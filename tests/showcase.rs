@@ -56,7 +56,10 @@ fn options(method: Method, (width, height): (u32, u32), budget: Budget, seed: u3
 /// light).
 fn assert_sane(r: &RenderResult, what: &str) {
     let discarded = r.discarded();
-    assert!(discarded.iter().all(|&n| n == 0), "{what}: estimates discarded per component {discarded:?}");
+    assert!(
+        discarded.iter().all(|&n| n == 0),
+        "{what}: estimates discarded per component {discarded:?}"
+    );
     for (k, film) in std::iter::once(&r.film).chain(&r.components).enumerate() {
         assert_eq!(film.rejected, 0, "{what}: layer {k} dropped non-finite samples");
         for p in film.image().pixels {

@@ -88,7 +88,10 @@ fn options(method: Method, w: u32, passes: u64, gpu: Option<Arc<GpuBackend>>) ->
 /// sign bug into quietly missing light).
 fn assert_finite(what: &str, r: &RenderResult) {
     let discarded = r.discarded();
-    assert!(discarded.iter().all(|&n| n == 0), "{what}: estimates discarded per component {discarded:?}");
+    assert!(
+        discarded.iter().all(|&n| n == 0),
+        "{what}: estimates discarded per component {discarded:?}"
+    );
     assert_eq!(r.film.rejected, 0, "{what}: non-finite samples reached the film");
     for (k, f) in std::iter::once(&r.film).chain(&r.components).enumerate() {
         assert_eq!(f.rejected, 0, "{what}: layer {k} dropped non-finite samples");
@@ -345,7 +348,12 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             for v in &g.results[k as usize] {
                 assert!(sane(*v), "{} with R² {r2}: {v}", k.name());
             }
-            assert_eq!(g.discarded[k as usize], 0, "{} with R² {r2}: discarded estimates", k.name());
+            assert_eq!(
+                g.discarded[k as usize],
+                0,
+                "{} with R² {r2}: discarded estimates",
+                k.name()
+            );
         }
     }
 }

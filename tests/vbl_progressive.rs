@@ -260,5 +260,3 @@ fn vbl_has_no_singular_pixels_where_vrl_does() {
         "vbl drawing lights {worst_drawn} vs all pairs {worst_vbl}"
     );
 }
-
-

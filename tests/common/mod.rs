@@ -433,7 +433,10 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
     let Budget::Passes(passes) = opts.budget else {
         panic!("batch means need a pass budget")
     };
-    assert!(passes % batches == 0, "{passes} passes do not split into {batches} batches");
+    assert!(
+        passes % batches == 0,
+        "{passes} passes do not split into {batches} batches"
+    );
     let batch = passes / batches;
     // Slot 0..7: the components; the image is tracked apart in the same way.
     let (mut parts, mut last_parts) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
@@ -441,7 +444,10 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
     let result = render(ts, opts, |progress| {
         if progress.passes % batch == 0 {
             let means: [DVec3; 7] = std::array::from_fn(|c| {
-                progress.components.get(c).map_or(DVec3::ZERO, |f| f.image().mean().as_dvec3())
+                progress
+                    .components
+                    .get(c)
+                    .map_or(DVec3::ZERO, |f| f.image().mean().as_dvec3())
             });
             parts.push_cumulative(&means, progress.passes, &mut last_parts);
             let mut image = [DVec3::ZERO; 7];
@@ -452,7 +458,10 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
     })
     .unwrap();
     let components = std::array::from_fn(|c| {
-        result.components.get(c).map_or(DVec3::ZERO, |f| f.image().mean().as_dvec3())
+        result
+            .components
+            .get(c)
+            .map_or(DVec3::ZERO, |f| f.image().mean().as_dvec3())
     });
     let image = result.film.image().mean().as_dvec3();
     MeansWithErrors {
