@@ -177,9 +177,9 @@ pub struct PassTimes {
 
 /// What may enter an accumulator: `v` when it is finite and non-negative; otherwise it counts
 /// in `discarded` and only its finite non-negative part passes (0 for NaN or ∞, negative
-/// channels raised to 0). Every virtual-light and caustic estimate goes through this, once per
-/// drawn pair and once per record, on the CPU and (as `admit` in `shaders/lib/gather.wgsl`)
-/// on the GPU.
+/// channels raised to 0). Every virtual-light, caustic and direct-light estimate goes through
+/// this, once per drawn pair and once per record, on the CPU and (as `admit` in
+/// `shaders/lib/gather.wgsl`) on the GPU.
 #[inline]
 pub fn admit(v: Rgb, discarded: &mut u64) -> Rgb {
     if v.is_finite() && v.min_element() >= 0.0 {
