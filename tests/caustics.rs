@@ -6,7 +6,6 @@ mod common;
 use beamlight_render::{
     Budget, Method, RenderOptions,
     many_lights::{ManyLightSettings, pass_squared_radius},
-    render,
 };
 use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, rng::Sampler};
 use beamlight_trace::{

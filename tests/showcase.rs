@@ -6,7 +6,7 @@
 //! `cars.glb` (2.26 M triangles) is generated, not committed: `cargo xtask ci` writes it before
 //! the tests. Elsewhere the cars tests skip with a message when it is missing.
 use beamlight_render::{
-    Budget, Image, Method, RenderOptions, RenderResult, compare::compare, many_lights::ManyLightSettings, render,
+    Budget, Method, RenderOptions, RenderResult, compare::compare, many_lights::ManyLightSettings, render,
 };
 use beamlight_scene::load::load_scene;
 use beamlight_trace::TraceScene;
