@@ -1024,20 +1024,13 @@ mod tests {
         (mean, ((sum2 / k as f64 - mean * mean) / k as f64).sqrt())
     }
 
-    /// Issue 19: the VSL blur must neither lose nor gain light next to a surface, at any R. With
-    /// σt = 1 and R = 0.35 and 1 (where the estimator before the correction lost 5–25 %),
-    /// uniform photons around a receiver must give the exact radiance within 4 standard errors
-    /// (200 000 photons: about 0.3 %); the uncorrected estimate must miss it by 8 (which shows
-    /// the check can fail). Covers: volume photons seen from a surface (`Lsm`'s geometry) and
-    /// from a medium point (`Lmm`), a lit wall seen from just above it (`Lms`), and a wall seen
-    /// from the floor near the corner (`Lss`). Not covered: receivers within R of
-    /// two surfaces (two cuts; see [`Collection`]).
-    #[test]
-    fn the_blur_is_energy_preserving_at_any_radius() {
+    /// Photons of density 1 on the wall x = 0 above the floor, seen from a Lambert floor point
+    /// `h` from the wall (`Lss` near a corner).
+    fn lss(h: f32, radii: &'static [f32]) -> BlurCase {
         use std::f32::consts::{FRAC_1_PI, PI};
-        let lss = |h: f32, radii: &'static [f32]| BlurCase {
+        BlurCase {
             // Photons of density 1 on the wall x = 0 above the floor (z > 0; Lambert,
-            // radiance 1/π); a Lambert floor point h from the wall (h > R: one cut):
+            // radiance 1/π); a Lambert floor point h from the wall (one cut while h > R):
             // ∫ over directions to the wall of (w_z/π)(1/π) e^(−h/|w_x|) dω'.
             name: "surface photons, surface receiver near the corner (Lss)",
             exact: quadrature(|z, f| {
@@ -1060,7 +1053,20 @@ mod tests {
             sheet: Some(Vec3::X),
             fallback: Vec3::Z,
             f: |w| w.z.max(0.0) * FRAC_1_PI * (-w.x).max(0.0) * FRAC_1_PI,
-        };
+        }
+    }
+
+    /// Issue 19: the VSL blur must neither lose nor gain light next to a surface, at any R. With
+    /// σt = 1 and R = 0.35 and 1 (where the estimator before the correction lost 5–25 %),
+    /// uniform photons around a receiver must give the exact radiance within 4 standard errors
+    /// (200 000 photons: about 0.3 %); the uncorrected estimate must miss it by 8 (which shows
+    /// the check can fail). Covers: volume photons seen from a surface (`Lsm`'s geometry) and
+    /// from a medium point (`Lmm`), a lit wall seen from just above it (`Lms`), and a wall seen
+    /// from the floor near the corner (`Lss`). Not covered: receivers within R of
+    /// two surfaces (two cuts; see [`Collection`]).
+    #[test]
+    fn the_blur_is_energy_preserving_at_any_radius() {
+        use std::f32::consts::{FRAC_1_PI, PI};
         const LIFT: f32 = 0.1; // the Lms receiver's height above its wall
         let cases = [
             BlurCase {
@@ -1147,6 +1153,36 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Where the correction is incomplete (a floor point 0.25 from a lit wall: within R of two
+    /// surfaces, only the floor's cut is renormalised), the blur's bias must still fall as R
+    /// does and vanish: what eq. 11's shrinking radius relies on for convergence. At R = 1 and
+    /// 0.5 the bias must be visible (beyond 4 standard errors, else this check could not see
+    /// one), smaller at 0.5 than at 1, and at R = 0.2 (one cut) gone within 4 standard errors.
+    /// An estimator whose bias did not depend on R (a wrong factor in the kernel, say) fails.
+    #[test]
+    fn the_blurs_residual_bias_falls_with_the_radius() {
+        let case = lss(0.25, &[]);
+        let bias = |r: f32| {
+            let (ours, se) = blur_estimate(&case, r, 1.0, true);
+            eprintln!("two cuts, R {r}: {ours:.6} ± {se:.6} against {:.6}", case.exact);
+            ((ours - case.exact) / case.exact, se / case.exact)
+        };
+        let ((b1, e1), (b2, e2), (b3, e3)) = (bias(1.0), bias(0.5), bias(0.2));
+        eprintln!("relative bias: R 1 {b1:+.4} ± {e1:.4}, R 0.5 {b2:+.4} ± {e2:.4}, R 0.2 {b3:+.4} ± {e3:.4}");
+        assert!(
+            b1.abs() > 4.0 * e1 && b2.abs() > 4.0 * e2,
+            "the two-cut bias must be visible here"
+        );
+        assert!(
+            b2.abs() < b1.abs(),
+            "the bias must fall with R: {b1} at R = 1, {b2} at R = 0.5"
+        );
+        assert!(
+            b3.abs() < 4.0 * e3,
+            "the bias must vanish once one cut remains: {b3} ± {e3}"
+        );
     }
 
     #[test]
