@@ -41,22 +41,13 @@ fn vbl_components_converge_to_the_path_tracer() {
     let (w, h) = (4u32, 4u32);
     let ts = TraceScene::new(fog_box(w, h, false));
     let reference = pt_components_with_errors(&ts, 16384, 11);
-    let (passes, batch) = (384u64, 24u64);
-    let mut opts = options(Method::Vbl, w, h, passes, 200, 12);
+    let mut opts = options(Method::Vbl, w, h, 384, 200, 12);
     opts.many_lights.light_samples = None;
-    let (mut batches, mut last) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
-    let result = render(&ts, &opts, |progress| {
-        if progress.passes % batch == 0 {
-            let means = std::array::from_fn(|c| progress.components[c].image().mean().as_dvec3());
-            batches.push_cumulative(&means, progress.passes, &mut last);
-        }
-        true
-    })
-    .unwrap();
+    let run = render_with_errors(&ts, &opts, 16);
+    let result = &run.result;
     assert_eq!(result.film.rejected, 0);
     assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
     eprintln!("vbl: {} passes in {:?}", result.passes, result.elapsed);
-    let ours: [DVec3; 7] = std::array::from_fn(|c| result.components[c].image().mean().as_dvec3());
     let components = [
         Component::Direct,
         Component::Lss,
@@ -66,7 +57,7 @@ fn vbl_components_converge_to_the_path_tracer() {
     ];
     assert_components_within_errors(
         "vbl",
-        (&ours, &batches.standard_errors()),
+        (&run.components, &run.component_errors),
         (&reference.0, &reference.1),
         &components,
         4.0,
@@ -107,27 +98,6 @@ fn vbl_error_shrinks_as_passes_go_on() {
     assert!(at_4p < 0.7 * at_p, "error must shrink: {at_p} → {at_4p}");
 }
 
-/// The furnace's image mean and its standard error (batch means over 16 batches of passes).
-fn furnace_mean(ts: &TraceScene, opts: &RenderOptions) -> (DVec3, DVec3) {
-    let Budget::Passes(passes) = opts.budget else {
-        panic!("a pass budget")
-    };
-    let batch = passes / 16;
-    let (mut batches, mut last) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
-    let result = render(ts, opts, |progress| {
-        if progress.passes % batch == 0 {
-            let mut means = [DVec3::ZERO; 7];
-            means[0] = progress.film.image().mean().as_dvec3();
-            batches.push_cumulative(&means, progress.passes, &mut last);
-        }
-        true
-    })
-    .unwrap();
-    assert_eq!(result.film.rejected, 0);
-    assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
-    (result.film.image().mean().as_dvec3(), batches.standard_errors()[0])
-}
-
 /// The furnace (emitting, half-reflecting walls around a non-absorbing medium) renders 2.0
 /// everywhere, so `vbl` must: the bundled asset (chromatic σs, g = 0.3) with default settings,
 /// and a grey furnace (σs = 1) at g = 0, 0.5 and 0.9 with the radius held at R0 (α = 0.99), the
@@ -154,7 +124,10 @@ fn vbl_furnace_converges_to_two() {
     }
     let mut failed = Vec::new();
     for (name, ts, opts) in &cases {
-        let (mean, se) = furnace_mean(ts, opts);
+        let run = render_with_errors(ts, opts, 16);
+        assert_eq!(run.result.film.rejected, 0);
+        assert_eq!(run.result.discarded(), [0; 7], "estimates discarded per component");
+        let (mean, se) = (run.image, run.image_error);
         let z = ((mean - DVec3::splat(2.0)) / se).abs().max_element();
         eprintln!("vbl furnace, {name}: {mean:.4} ± {:.4} (z {z:.2})", se.max_element());
         if !(z < 4.0) {

@@ -215,9 +215,10 @@ fn uncut_weight(height: f32, reach: f32) -> f32 {
     return 1.0 / fraction;
 }
 
-// `vbl::transmittance_share`: T^share per channel (0 stays 0).
+// `vbl::transmittance_share`: T^share per channel (0 stays 0; a NaN or negative T stays NaN,
+// for `admit` to count).
 fn transmittance_share(tr: vec3<f32>, share: f32) -> vec3<f32> {
-    return select(vec3<f32>(0.0), exp(log(tr) * share), tr > vec3<f32>(0.0));
+    return select(exp(log(tr) * share), vec3<f32>(0.0), tr == vec3<f32>(0.0));
 }
 
 // `Collection::weight`: the transmittance to the collection point over the uncut fraction of the

@@ -368,48 +368,54 @@ pub fn start_pass(
                     let rx = Receiver::at_point(&ts.scene, sp);
                     let (vsl, vbl_k) = (GatherKind::VplToSurface, GatherKind::VrlToSurface);
                     (
-                        sel.timed_estimate(&mut t[Component::Lss as usize], &sel.vsls, &rx, vsl, i, |j, s| {
-                            admit(
-                                vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s),
-                                &mut dp[Component::Lss as usize],
-                            )
-                        }),
-                        sel.timed_estimate(&mut t[Component::Lsm as usize], &sel.vbls, &rx, vbl_k, i, |j, s| {
-                            admit(
-                                vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s),
-                                &mut dp[Component::Lsm as usize],
-                            )
-                        }),
+                        sel.timed_estimate(
+                            &mut t[Component::Lss as usize],
+                            &mut dp[Component::Lss as usize],
+                            &sel.vsls,
+                            &rx,
+                            vsl,
+                            i,
+                            |j, s| vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s),
+                        ),
+                        sel.timed_estimate(
+                            &mut t[Component::Lsm as usize],
+                            &mut dp[Component::Lsm as usize],
+                            &sel.vbls,
+                            &rx,
+                            vbl_k,
+                            i,
+                            |j, s| vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s),
+                        ),
                     )
                 } else if beams_on {
                     (
-                        timed_sum(&mut t[Component::Lss as usize], &lights.vpls, |j, v| {
-                            admit(
-                                vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j)),
-                                &mut dp[Component::Lss as usize],
-                            )
-                        }),
-                        timed_sum(&mut t[Component::Lsm as usize], &lights.vrls, |j, v| {
-                            admit(
-                                vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VrlToSurface, i, j)),
-                                &mut dp[Component::Lsm as usize],
-                            )
-                        }),
+                        timed_sum(
+                            &mut t[Component::Lss as usize],
+                            &mut dp[Component::Lss as usize],
+                            &lights.vpls,
+                            |j, v| vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j)),
+                        ),
+                        timed_sum(
+                            &mut t[Component::Lsm as usize],
+                            &mut dp[Component::Lsm as usize],
+                            &lights.vrls,
+                            |j, v| vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VrlToSurface, i, j)),
+                        ),
                     )
                 } else {
                     (
-                        timed_sum(&mut t[Component::Lss as usize], &lights.vpls, |j, v| {
-                            admit(
-                                vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VplToSurface, i, j)),
-                                &mut dp[Component::Lss as usize],
-                            )
-                        }),
-                        timed_sum(&mut t[Component::Lsm as usize], &lights.vrls, |j, v| {
-                            admit(
-                                vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VrlToSurface, i, j)),
-                                &mut dp[Component::Lsm as usize],
-                            )
-                        }),
+                        timed_sum(
+                            &mut t[Component::Lss as usize],
+                            &mut dp[Component::Lss as usize],
+                            &lights.vpls,
+                            |j, v| vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VplToSurface, i, j)),
+                        ),
+                        timed_sum(
+                            &mut t[Component::Lsm as usize],
+                            &mut dp[Component::Lsm as usize],
+                            &lights.vrls,
+                            |j, v| vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VrlToSurface, i, j)),
+                        ),
                     )
                 };
                 c[Component::Lss as usize] = admit(lss / m, &mut dp[Component::Lss as usize]);
@@ -436,48 +442,54 @@ pub fn start_pass(
                     let rx = Receiver::along_segment(&ts.scene, seg);
                     let (vsl, vbl_k) = (GatherKind::VplToMedia, GatherKind::VrlToMedia);
                     (
-                        sel.timed_estimate(&mut t[Component::Lms as usize], &sel.vsls, &rx, vsl, i, |j, s| {
-                            admit(
-                                vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s),
-                                &mut dp[Component::Lms as usize],
-                            )
-                        }),
-                        sel.timed_estimate(&mut t[Component::Lmm as usize], &sel.vbls, &rx, vbl_k, i, |j, s| {
-                            admit(
-                                vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s),
-                                &mut dp[Component::Lmm as usize],
-                            )
-                        }),
+                        sel.timed_estimate(
+                            &mut t[Component::Lms as usize],
+                            &mut dp[Component::Lms as usize],
+                            &sel.vsls,
+                            &rx,
+                            vsl,
+                            i,
+                            |j, s| vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s),
+                        ),
+                        sel.timed_estimate(
+                            &mut t[Component::Lmm as usize],
+                            &mut dp[Component::Lmm as usize],
+                            &sel.vbls,
+                            &rx,
+                            vbl_k,
+                            i,
+                            |j, s| vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s),
+                        ),
                     )
                 } else if beams_on {
                     (
-                        timed_sum(&mut t[Component::Lms as usize], &lights.vpls, |j, v| {
-                            admit(
-                                vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j)),
-                                &mut dp[Component::Lms as usize],
-                            )
-                        }),
-                        timed_sum(&mut t[Component::Lmm as usize], &lights.vrls, |j, v| {
-                            admit(
-                                vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VrlToMedia, i, j)),
-                                &mut dp[Component::Lmm as usize],
-                            )
-                        }),
+                        timed_sum(
+                            &mut t[Component::Lms as usize],
+                            &mut dp[Component::Lms as usize],
+                            &lights.vpls,
+                            |j, v| vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j)),
+                        ),
+                        timed_sum(
+                            &mut t[Component::Lmm as usize],
+                            &mut dp[Component::Lmm as usize],
+                            &lights.vrls,
+                            |j, v| vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VrlToMedia, i, j)),
+                        ),
                     )
                 } else {
                     (
-                        timed_sum(&mut t[Component::Lms as usize], &lights.vpls, |j, v| {
-                            admit(
-                                vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VplToMedia, i, j)),
-                                &mut dp[Component::Lms as usize],
-                            )
-                        }),
-                        timed_sum(&mut t[Component::Lmm as usize], &lights.vrls, |j, v| {
-                            admit(
-                                vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VrlToMedia, i, j)),
-                                &mut dp[Component::Lmm as usize],
-                            )
-                        }),
+                        timed_sum(
+                            &mut t[Component::Lms as usize],
+                            &mut dp[Component::Lms as usize],
+                            &lights.vpls,
+                            |j, v| vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VplToMedia, i, j)),
+                        ),
+                        timed_sum(
+                            &mut t[Component::Lmm as usize],
+                            &mut dp[Component::Lmm as usize],
+                            &lights.vrls,
+                            |j, v| vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VrlToMedia, i, j)),
+                        ),
                     )
                 };
                 c[Component::Lms as usize] = admit(lms / m, &mut dp[Component::Lms as usize]);
@@ -558,11 +570,13 @@ struct Selection {
 impl Selection {
     /// [`LightTree::estimate`] for record `record` of kind `kind` with its streams
     /// ([`streams`]: the selection number, each slot's descent and drawn pair), `f(light,
-    /// stream)` the drawn light's contribution; its CPU time added to `seconds` (an empty
-    /// tree is not timed).
+    /// stream)` the drawn light's contribution, each [`admit`]ted (counted in `discarded`); its
+    /// CPU time added to `seconds` (an empty tree is not timed).
+    #[allow(clippy::too_many_arguments)]
     fn timed_estimate(
         &self,
         seconds: &mut f64,
+        discarded: &mut u64,
         tree: &LightTree,
         rx: &Receiver,
         kind: GatherKind,
@@ -580,19 +594,27 @@ impl Selection {
                 self.k,
                 streams::selection_number(seed, pass, kind, i),
                 |slot| streams::selection_sampler(seed, pass, kind, i, slot),
-                |slot, j| f(j, &mut streams::drawn_pair_sampler(seed, pass, kind, i, slot)),
+                |slot, j| {
+                    admit(
+                        f(j, &mut streams::drawn_pair_sampler(seed, pass, kind, i, slot)),
+                        discarded,
+                    )
+                },
             )
         })
     }
 }
 
-/// Σ over a light set of each virtual light's contribution, `f(index, light)`, its CPU time
-/// added to `seconds` (an empty set costs nothing and is not timed).
-fn timed_sum<T>(seconds: &mut f64, lights: &[T], mut f: impl FnMut(usize, &T) -> Rgb) -> Rgb {
+/// Σ over a light set of each virtual light's contribution, `f(index, light)`, each
+/// [`admit`]ted (counted in `discarded`); its CPU time added to `seconds` (an empty set costs
+/// nothing and is not timed).
+fn timed_sum<T>(seconds: &mut f64, discarded: &mut u64, lights: &[T], mut f: impl FnMut(usize, &T) -> Rgb) -> Rgb {
     if lights.is_empty() {
         return Rgb::ZERO;
     }
-    timed(seconds, || lights.iter().enumerate().map(|(j, l)| f(j, l)).sum())
+    timed(seconds, || {
+        lights.iter().enumerate().map(|(j, l)| admit(f(j, l), discarded)).sum()
+    })
 }
 
 /// Runs `f`, adding its duration to `seconds` (per-component CPU time for `--stats`).

@@ -410,10 +410,11 @@ impl Collection {
     }
 }
 
-/// T^share per channel (T ∈ [0, 1]; 0 stays 0, whatever the share).
+/// T^share per channel (T ∈ [0, 1]; 0 stays 0, whatever the share). A NaN or negative T stays
+/// NaN, for `many_lights::admit` to count.
 #[inline]
 fn transmittance_share(tr: Rgb, share: f32) -> Rgb {
-    let one = |t: f32| if t > 0.0 { (t.ln() * share).exp() } else { 0.0 };
+    let one = |t: f32| if t == 0.0 { 0.0 } else { (t.ln() * share).exp() };
     Rgb::new(one(tr.x), one(tr.y), one(tr.z))
 }
 
