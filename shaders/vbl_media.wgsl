@@ -36,6 +36,9 @@ fn hg_peak_gather(g: f32, travel: vec3<f32>) -> vec4<f32> {
 fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>) -> vec3<f32> {
     let mv = media[vrl.medium];
     let mc = media[seg.medium];
+    if !gathers_in_medium(mc.g) {
+        return vec3<f32>(0.0);
+    }
     let r2 = clean_r2(params.radius2);
     let r = sqrt(r2);
     let ov = vrl.origin;

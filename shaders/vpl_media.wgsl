@@ -5,6 +5,9 @@
 
 fn vpl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<function, Sampler>) -> vec3<f32> {
     let m = media[seg.medium];
+    if !gathers_in_medium(m.g) {
+        return vec3<f32>(0.0);
+    }
     let sample = equiangular(seg.origin, seg.dir, 0.0, seg.length, vpl.pos, next_1d(s));
     let t = sample.x;
     let pdf = sample.y;

@@ -21,6 +21,9 @@ fn sample_near_line(ov: vec3<f32>, dv: vec3<f32>, len: f32, oc: vec3<f32>, dc: v
 fn vrl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>) -> vec3<f32> {
     let mv = media[vrl.medium];
     let mc = media[seg.medium];
+    if !gathers_in_medium(mc.g) {
+        return vec3<f32>(0.0);
+    }
     let stage1 = sample_near_line(vrl.origin, vrl.dir, vrl.length, seg.origin, seg.dir, next_1d(s));
     let u = stage1.x;
     let pdf_u = stage1.y;

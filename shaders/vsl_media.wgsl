@@ -7,6 +7,9 @@
 
 fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<function, Sampler>) -> vec3<f32> {
     let m = media[seg.medium];
+    if !gathers_in_medium(m.g) {
+        return vec3<f32>(0.0);
+    }
     let r2 = clean_r2(params.radius2);
     let o = seg.origin;
     let d = seg.dir;

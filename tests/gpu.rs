@@ -605,14 +605,27 @@ fn vbl_gathers_match_cpu_with_other_settings() {
 /// `vrl` renders on the GPU and the CPU backends, same seed: the same image per pixel.
 #[test]
 fn vrl_renders_match_across_backends() {
-    compare_renders(Method::Vrl);
+    compare_renders(Method::Vrl, bounded_fog_with_mirror());
 }
 
 /// `vbl` renders (VBLs/VSLs with the default radius, shrinking over the passes) on the GPU
 /// and the CPU backends, same seed: the same image per pixel.
 #[test]
 fn vbl_renders_match_across_backends() {
-    compare_renders(Method::Vbl);
+    compare_renders(Method::Vbl, bounded_fog_with_mirror());
+}
+
+/// The same with the fog's phase function sharp (g = 0.98, `components::is_sharp`): its camera
+/// segments gather nothing on either backend (the kernels' `gathers_in_medium`), and `Lms` and
+/// `Lmm` come from the walks' records, which the GPU gathers too and the CPU credits to them.
+/// Fails if a kernel still gathers along a sharp segment, or a walk record's result lands in
+/// the wrong component or pixel.
+#[test]
+fn vbl_renders_match_across_backends_in_a_sharp_medium() {
+    let mut scene = bounded_fog_with_mirror();
+    scene.media[0].g = 0.98;
+    assert!(beamlight_trace::components::is_sharp(scene.media[0].g));
+    compare_renders(Method::Vbl, scene);
 }
 
 /// [`bounded_fog`] (lumpy) with a mirror cube beside the fog sphere, so that every component
@@ -655,11 +668,11 @@ const RENDER_MAX_RELATIVE: f32 = 5e-3;
 /// components agree to the tolerances above; the GPU backend's gathers really ran on the GPU
 /// (every pass has kernel time in each of the method's kernels, from timestamp queries), so a
 /// silent fall-back to the CPU estimators fails.
-fn compare_renders(method: Method) {
+fn compare_renders(method: Method, scene: Scene) {
     let Some(_) = beamlight_gpu::device::for_tests() else {
         return;
     };
-    let ts = TraceScene::new(bounded_fog_with_mirror());
+    let ts = TraceScene::new(scene);
     let backend = Arc::new(GpuBackend::open(&ts.scene).unwrap());
     assert!(
         backend.gpu.timestamps,

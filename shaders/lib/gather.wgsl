@@ -80,6 +80,14 @@ struct GatherParams {
     vbl_tree_nodes: u32,
 }
 
+// `components::SHARP_PHASE_G`: HG media at least this anisotropic are sharp, and a camera
+// point in one connects to no virtual light (the camera path's walk carries that light).
+const SHARP_PHASE_G: f32 = 0.95;
+
+fn gathers_in_medium(camera_g: f32) -> bool {
+    return abs(camera_g) < SHARP_PHASE_G;
+}
+
 const ANGULAR_PDF_VBL: u32 = 0u;
 const ANGULAR_PDF_VRL: u32 = 1u;
 

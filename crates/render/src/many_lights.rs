@@ -15,9 +15,9 @@ use beamlight_gpu::{
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
-    camera_paths::{CameraPathSettings, GatherSet, trace_camera_paths},
+    camera_paths::{CameraPathSettings, GatherSet, MediaSegment, ShadingPoint, trace_camera_paths},
     caustics::{BeamMap, PhotonMap},
-    components::Component,
+    components::{Component, gathers_in_medium},
     direct,
     light_paths::{LightTracerSettings, trace_light_paths},
     light_tree::{LightTree, Receiver},
@@ -214,6 +214,10 @@ pub struct PassInFlight {
     /// The pixel of each shading point and each media segment, for the GPU's results.
     point_pixels: Vec<u32>,
     segment_pixels: Vec<u32>,
+    /// The component each walk record's gathers are credited to, by record index (`None`:
+    /// a camera record, each estimate in its own component; see [`credited`]).
+    point_credits: Vec<Option<Component>>,
+    segment_credits: Vec<Option<Component>>,
     times: PassTimes,
 }
 
@@ -228,13 +232,13 @@ impl PassInFlight {
             self.times.kernels = g.kernel_seconds;
             let components = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
             for (kernel, component) in self.kernels.into_iter().zip(components) {
-                let pixels = if kernel.on_surfaces() {
-                    &self.point_pixels
+                let (pixels, credits) = if kernel.on_surfaces() {
+                    (&self.point_pixels, &self.point_credits)
                 } else {
-                    &self.segment_pixels
+                    (&self.segment_pixels, &self.segment_credits)
                 };
-                for (&pixel, v) in pixels.iter().zip(&g.results[kernel as usize]) {
-                    self.out[component as usize][pixel as usize] += *v;
+                for ((&pixel, &credit), v) in pixels.iter().zip(credits).zip(&g.results[kernel as usize]) {
+                    self.out[credited(component, credit) as usize][pixel as usize] += *v;
                 }
                 self.times.discarded[component as usize] += g.discarded[kernel as usize];
             }
@@ -261,6 +265,21 @@ pub fn start_pass(
     let mut times = PassTimes::default();
     let clock = Instant::now();
     let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed, pass);
+    // The camera's records, then the walks' through sharp media, whose gathers are credited
+    // to `Lmm` (segments) or the component each walk point names.
+    let points: Vec<ShadingPoint> = gather
+        .shading_points
+        .iter()
+        .copied()
+        .chain(gather.walk_points.iter().map(|w| w.0))
+        .collect();
+    let point_credits: Vec<Option<Component>> = std::iter::repeat_n(None, gather.shading_points.len())
+        .chain(gather.walk_points.iter().map(|w| Some(w.1)))
+        .collect();
+    let segments: Vec<MediaSegment> = [&gather.media_segments[..], &gather.walk_segments[..]].concat();
+    let segment_credits: Vec<Option<Component>> = std::iter::repeat_n(None, gather.media_segments.len())
+        .chain(std::iter::repeat_n(Some(Component::Lmm), gather.walk_segments.len()))
+        .collect();
     let lights = trace_light_paths(
         ts,
         &LightTracerSettings::default(),
@@ -313,8 +332,8 @@ pub fn start_pass(
             &g.scene,
             &ts.scene,
             &GatherInputs {
-                shading_points: &gather.shading_points,
-                media_segments: &gather.media_segments,
+                shading_points: &points,
+                media_segments: &segments,
                 vpls: &lights.vpls,
                 vrls: &lights.vrls,
                 paths: lights.paths,
@@ -338,7 +357,11 @@ pub fn start_pass(
     let mut discarded = direct_light(ts, &gather, seed, pass, direct);
     for k in 1..direct_samples {
         let seed_k = direct_seed(seed, k);
-        let extra = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed_k, pass);
+        let direct_only = CameraPathSettings {
+            walks: false,
+            ..Default::default()
+        };
+        let extra = trace_camera_paths(ts, &direct_only, w, h, seed_k, pass);
         discarded += direct_light(ts, &extra, seed_k, pass, direct);
     }
     times.discarded[Component::Direct as usize] = discarded;
@@ -355,14 +378,20 @@ pub fn start_pass(
     // Each gather point against every virtual light: the sum over a light set divided by its
     // path count M is the per-pass estimate.
     let (clamp, vbl) = (settings.clamp, &settings.vbl);
-    let at_points: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = gather
-        .shading_points
+    let at_points: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = points
         .par_iter()
         .enumerate()
         .map(|(i, sp)| {
             let mut c = [Rgb::ZERO; N];
             let mut t = [0f64; N];
             let mut dp = [0u64; N];
+            let credit = point_credits[i];
+            if let Some(k) = credit.map(|k| k as usize) {
+                // A walk point's direct light; the camera's shading points' is part of
+                // `direct_light` below.
+                let mut sd = direct_stream(seed, pass, 0, i);
+                c[k] += admit(timed(&mut t[k], || direct::direct_at_surface(ts, sp, &mut sd)), &mut dp[k]);
+            }
             if on_cpu {
                 let (lss, lsm) = if let Some(sel) = &selection {
                     let rx = Receiver::at_point(&ts.scene, sp);
@@ -418,18 +447,18 @@ pub fn start_pass(
                         ),
                     )
                 };
-                c[Component::Lss as usize] = admit(lss / m, &mut dp[Component::Lss as usize]);
-                c[Component::Lsm as usize] = admit(lsm / m, &mut dp[Component::Lsm as usize]);
+                let (ks, km) = (credited(Component::Lss, credit) as usize, credited(Component::Lsm, credit) as usize);
+                c[ks] += admit(lss / m, &mut dp[ks]);
+                c[km] += admit(lsm / m, &mut dp[km]);
             }
             if !photons.is_empty() {
-                let k = Component::CausticSurface as usize;
-                c[k] = admit(timed(&mut t[k], || photons.radiance(ts, sp) / m_photons), &mut dp[k]);
+                let k = credited(Component::CausticSurface, credit) as usize;
+                c[k] += admit(timed(&mut t[k], || photons.radiance(ts, sp) / m_photons), &mut dp[k]);
             }
             (sp.pixel, c, t, dp)
         })
         .collect();
-    let along_segments: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = gather
-        .media_segments
+    let along_segments: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = segments
         .par_iter()
         .enumerate()
         .map(|(i, seg)| {
@@ -437,7 +466,15 @@ pub fn start_pass(
             let mut c = [Rgb::ZERO; N];
             let mut t = [0f64; N];
             let mut dp = [0u64; N];
-            if on_cpu {
+            let credit = segment_credits[i];
+            if credit.is_some() {
+                // A walk segment's direct light (its second vertex on an emitter) is `Lmm`;
+                // the camera segments' is part of `direct_light` below.
+                let k = Component::Lmm as usize;
+                let mut sd = direct_stream(seed, pass, 1, i);
+                c[k] += admit(timed(&mut t[k], || direct::direct_in_medium(ts, seg, &mut sd)), &mut dp[k]);
+            }
+            if on_cpu && gathers_in_medium(ts.scene.media[seg.medium as usize].g) {
                 let (lms, lmm) = if let Some(sel) = &selection {
                     let rx = Receiver::along_segment(&ts.scene, seg);
                     let (vsl, vbl_k) = (GatherKind::VplToMedia, GatherKind::VrlToMedia);
@@ -492,12 +529,13 @@ pub fn start_pass(
                         ),
                     )
                 };
-                c[Component::Lms as usize] = admit(lms / m, &mut dp[Component::Lms as usize]);
-                c[Component::Lmm as usize] = admit(lmm / m, &mut dp[Component::Lmm as usize]);
+                let (ks, km) = (credited(Component::Lms, credit) as usize, credited(Component::Lmm, credit) as usize);
+                c[ks] += admit(lms / m, &mut dp[ks]);
+                c[km] += admit(lmm / m, &mut dp[km]);
             }
             if !beams.is_empty() {
-                let k = Component::CausticVolume as usize;
-                c[k] = admit(
+                let k = credited(Component::CausticVolume, credit) as usize;
+                c[k] += admit(
                     timed(&mut t[k], || beams.radiance(ts, seg, &mut s) / m_beams),
                     &mut dp[k],
                 );
@@ -518,10 +556,25 @@ pub fn start_pass(
         out,
         pending,
         kernels,
-        point_pixels: gather.shading_points.iter().map(|sp| sp.pixel).collect(),
-        segment_pixels: gather.media_segments.iter().map(|seg| seg.pixel).collect(),
+        point_pixels: points.iter().map(|sp| sp.pixel).collect(),
+        segment_pixels: segments.iter().map(|seg| seg.pixel).collect(),
+        point_credits,
+        segment_credits,
         times,
     })
+}
+
+/// The component a record's estimate of `component` belongs to: itself at the camera's
+/// records; the walk's credit at a walk record, whose (v1, v2) classify its every path
+/// ([`beamlight_trace::components`]).
+fn credited(component: Component, credit: Option<Component>) -> Component {
+    credit.unwrap_or(component)
+}
+
+/// Direct light's random stream for record `i` of `kind` (0: shading points, 1: media
+/// segments, walk segments numbered after the camera's) of a camera sample with `seed`.
+fn direct_stream(seed: u32, pass: u32, kind: u32, i: usize) -> Sampler {
+    Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind)
 }
 
 /// The seed of direct light's `k`-th extra camera sample (k ≥ 1) of a render with `seed`.
@@ -533,7 +586,7 @@ fn direct_seed(seed: u32, k: u32) -> u32 {
 /// through specular chains) and next-event estimation at each of its records, whose streams
 /// are keyed by `seed`. Returns how many estimates it discarded ([`admit`]).
 fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: &mut [Rgb]) -> u64 {
-    let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind);
+    let stream = |kind: u32, i: usize| direct_stream(seed, pass, kind, i);
     for (o, e) in out.iter_mut().zip(&gather.emitted) {
         *o += *e;
     }

@@ -2,13 +2,19 @@
 //! and glass chains and invisible medium boundaries, recorded as the points and segments where
 //! the many-light estimators gather light.
 //!
+//! In a sharp medium ([`crate::components::is_sharp`]) a camera segment also starts a *walk*:
+//! a point on it by free-flight sampling, a direction from its phase function, and what the
+//! ray it scatters into meets is recorded as walk segments and a walk point, gathered like
+//! camera records but credited to `Lmm` or `Lms` ([`walk_sharp_media`]); walk segments in
+//! sharp media walk on in turn, until Russian roulette ends them.
+//!
 //! Throughput bookkeeping: a record's `throughput` is what radiance arriving there is multiplied
 //! by on its way to the pixel. For a media segment it is the throughput at the segment's start
 //! (its own transmittance is part of the estimate along it); for a shading point it includes the
 //! transmittance of every medium the ray crossed to reach it. Emission seen directly (also
 //! through specular chains) is added to `emitted`, per pixel.
-use crate::{TraceScene, context::MAX_CROSSINGS, media};
-use beamlight_scene::{Rgb, bsdf::Bsdf, frame::Frame, rng::Sampler, scene::MediumId};
+use crate::{TraceScene, components::Component, context::{MAX_CROSSINGS, SurfaceHit}, media};
+use beamlight_scene::{Rgb, bsdf::Bsdf, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, scene::MediumId};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -40,6 +46,23 @@ pub struct ShadingPoint {
 pub const NO_MEDIUM: u32 = u32::MAX;
 
 impl ShadingPoint {
+    /// The record of surface hit `sh` seen along `-wo` with `throughput`, in `medium`.
+    fn new(sh: &SurfaceHit, wo: Vec3, pixel: u32, throughput: Rgb, medium: MediumId) -> Self {
+        let ns = if sh.ns.dot(wo) < 0.0 { -sh.ns } else { sh.ns };
+        Self {
+            pos: sh.p.into(),
+            material: sh.material,
+            normal: ns.into(),
+            tri: sh.tri,
+            wo: wo.into(),
+            pixel,
+            throughput: throughput.into(),
+            medium: medium.unwrap_or(NO_MEDIUM),
+            uv: sh.uv.unwrap_or_default().into(),
+            _pad2: [0; 2],
+        }
+    }
+
     pub fn medium(&self) -> MediumId {
         (self.medium != NO_MEDIUM).then_some(self.medium)
     }
@@ -69,19 +92,28 @@ pub struct GatherSet {
     pub height: u32,
     pub shading_points: Vec<ShadingPoint>,
     pub media_segments: Vec<MediaSegment>,
+    /// Stretches of the rays that walks through sharp media scattered into
+    /// ([`walk_sharp_media`]); everything gathered along them is `Lmm`.
+    pub walk_segments: Vec<MediaSegment>,
+    /// The diffuse or glossy surfaces those rays reached, and the component everything
+    /// gathered at each is credited to (`Lms`, or `Lmm` after two walk scatterings).
+    pub walk_points: Vec<(ShadingPoint, Component)>,
     /// Emitted radiance seen directly, per pixel (one jittered sample).
     pub emitted: Vec<Rgb>,
 }
 
 #[derive(Clone, Copy, Debug)]
 pub struct CameraPathSettings {
-    /// Specular bounces after which Russian roulette starts.
+    /// Specular bounces (and walk scatterings) after which Russian roulette starts.
     pub rr_depth: u32,
+    /// Whether camera segments in sharp media start walks ([`walk_sharp_media`]); off for
+    /// camera samples that only estimate direct light.
+    pub walks: bool,
 }
 
 impl Default for CameraPathSettings {
     fn default() -> Self {
-        Self { rr_depth: 8 }
+        Self { rr_depth: 8, walks: true }
     }
 }
 
@@ -114,6 +146,7 @@ pub fn trace_camera_paths(
                 let j = s.next_2d();
                 let film = Vec2::new((x as f32 + j.x) / width as f32, (y as f32 + j.y) / height as f32);
                 let d = cam.direction(film, width as f32 / height as f32);
+                let first = row.media_segments.len();
                 row.emitted[x as usize] = trace_one(
                     ts,
                     settings,
@@ -124,6 +157,13 @@ pub fn trace_camera_paths(
                     &mut s,
                     &mut row,
                 );
+                if settings.walks {
+                    // A stream of its own, so that walks leave the camera paths' streams as
+                    // they are.
+                    let mut sw = Sampler::new(seed ^ WALK_SALT, pass, pixel);
+                    let camera_segments = row.media_segments[first..].to_vec();
+                    walk_sharp_media(ts, settings, &camera_segments, &mut sw, &mut row);
+                }
             }
             row
         })
@@ -133,11 +173,15 @@ pub fn trace_camera_paths(
         height,
         shading_points: Vec::with_capacity(rows.iter().map(|r| r.shading_points.len()).sum()),
         media_segments: Vec::with_capacity(rows.iter().map(|r| r.media_segments.len()).sum()),
+        walk_segments: Vec::with_capacity(rows.iter().map(|r| r.walk_segments.len()).sum()),
+        walk_points: Vec::with_capacity(rows.iter().map(|r| r.walk_points.len()).sum()),
         emitted: Vec::with_capacity((width * height) as usize),
     };
     for row in rows {
         set.shading_points.extend(row.shading_points);
         set.media_segments.extend(row.media_segments);
+        set.walk_segments.extend(row.walk_segments);
+        set.walk_points.extend(row.walk_points);
         set.emitted.extend(row.emitted);
     }
     set
@@ -198,20 +242,7 @@ fn trace_one(
         };
         let wo = -d;
         if !bsdf.is_delta() {
-            let ns = if sh.ns.dot(wo) < 0.0 { -sh.ns } else { sh.ns };
-            let uv = sh.uv.unwrap_or_default();
-            set.shading_points.push(ShadingPoint {
-                pos: sh.p.into(),
-                material: sh.material,
-                normal: ns.into(),
-                tri: sh.tri,
-                wo: wo.into(),
-                pixel,
-                throughput: throughput.into(),
-                medium: medium.unwrap_or(NO_MEDIUM),
-                uv: uv.into(),
-                _pad2: [0; 2],
-            });
+            set.shading_points.push(ShadingPoint::new(&sh, wo, pixel, throughput, medium));
             return emitted;
         }
         // Mirror or glass: follow the specular chain.
@@ -235,5 +266,92 @@ fn trace_one(
         medium = ts.medium_beyond(&sh, wi, medium);
         o = sh.spawn(wi);
         d = wi;
+    }
+}
+
+/// Salt of the walks' random streams.
+const WALK_SALT: u32 = 0x6a09_e667;
+
+/// Walks on from the camera segments `from` through sharp media (see [`crate::components`]):
+/// each segment in a sharp medium picks a scattering point v by free-flight sampling (none
+/// when the flight passes its end) and a direction from the phase function there. The ray from
+/// v, followed through invisible medium boundaries, is recorded stretch by stretch as walk
+/// segments, and its first diffuse or glossy surface as a walk point (a mirror, glass, an
+/// emitter or nothing ends it: those paths are caustics or direct light at v, which v's own
+/// estimators supply). Stretches in sharp media walk on in turn. v2, the walk's next vertex,
+/// lies on one of these records, so each is credited to the class of (v1, v2): `Lmm` for a
+/// stretch; for the surface `Lms` when v was v1 (a camera segment), `Lmm` when v was itself on
+/// a walk stretch (then v1 and v2 are both in media). Free-flight and HG sampling are exact,
+/// so a record's throughput is its parent's times the single-scattering albedo and the
+/// transmittance of the stretches before it; Russian roulette after `rr_depth` scatterings
+/// keeps walks finite and unbiased.
+fn walk_sharp_media(ts: &TraceScene, settings: &CameraPathSettings, from: &[MediaSegment], s: &mut Sampler, set: &mut GatherSet) {
+    let scene = &ts.scene;
+    // (segment, scatterings before it), depth first.
+    let mut todo: Vec<(MediaSegment, u32)> = from.iter().rev().map(|&seg| (seg, 0)).collect();
+    while let Some((seg, depth)) = todo.pop() {
+        let m = &scene.media[seg.medium as usize];
+        if !crate::components::is_sharp(m.g) {
+            continue;
+        }
+        let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+        let mut throughput = Rgb::from(seg.throughput);
+        let media::MediumEvent::Scatter { t, weight } = media::sample_distance(m, o, d, seg.length, throughput, s)
+        else {
+            continue;
+        };
+        throughput *= weight;
+        let depth = depth + 1;
+        if depth >= settings.rr_depth {
+            let q = throughput.max_element().min(0.95);
+            if !(s.next_1d() < q) {
+                continue;
+            }
+            throughput /= q;
+        }
+        if !(throughput.max_element() > 0.0) {
+            continue;
+        }
+        let wi = HenyeyGreenstein { g: m.g }.sample(-d, s.next_2d()).wi;
+        let at_surface = if depth == 1 { Component::Lms } else { Component::Lmm };
+        // The scattered ray, stretch by stretch through invisible boundaries.
+        let (mut o, mut medium) = (o + d * t, Some(seg.medium));
+        for _ in 0..=MAX_CROSSINGS {
+            let hit = ts.bvh.closest_hit(o, wi, f32::INFINITY);
+            if let Some(mi) = medium {
+                let length = media::extent(&scene.media[mi as usize], o, hit.map_or(f32::INFINITY, |h| h.t));
+                if length.is_finite() && length > 0.0 {
+                    let stretch = MediaSegment {
+                        origin: o.into(),
+                        length,
+                        dir: wi.into(),
+                        medium: mi,
+                        throughput: throughput.into(),
+                        pixel: seg.pixel,
+                    };
+                    set.walk_segments.push(stretch);
+                    todo.push((stretch, depth));
+                }
+                throughput *= ts.medium_transmittance(medium, o, wi, length, s);
+            }
+            let Some(h) = hit else { break };
+            if throughput == Rgb::ZERO {
+                break;
+            }
+            let sh = ts.surface(&h);
+            match scene.bsdf_at(sh.material, sh.uv) {
+                None => {
+                    medium = ts.medium_beyond(&sh, wi, medium);
+                    o = sh.spawn(wi);
+                }
+                Some(bsdf) => {
+                    if !bsdf.is_delta() {
+                        let sp = ShadingPoint::new(&sh, -wi, seg.pixel, throughput, medium);
+                        set.walk_points.push((sp, at_surface));
+                    }
+                    break;
+                }
+            }
+        }
     }
 }

@@ -38,30 +38,13 @@ pub fn direct_at_surface(ts: &TraceScene, sp: &ShadingPoint, s: &mut Sampler) ->
             l += f * tr * ls.contribution * w;
         }
     }
-    // BSDF sampling: follow the ray through invisible boundaries to the first surface; if it
-    // emits towards us, weight by transmittance and the MIS weight.
+    // BSDF sampling: the emitter the sampled ray reaches, if any, with the MIS weight.
     if let Some(bs) = bsdf.sample(wo_l, s.next_2d(), s.next_1d()) {
         let wi = frame.to_world(bs.wi);
         if !bs.is_delta && ng.dot(wi) * ng.dot(wo) > 0.0 {
-            let mut o = ts.spawn_from_triangle(sp.tri, p, wi);
-            let mut medium = sp.medium();
-            let mut tr = Rgb::ONE;
-            for _ in 0..MAX_CROSSINGS {
-                let Some((h, hit)) = ts.intersect(o, wi, f32::INFINITY) else {
-                    break;
-                };
-                tr *= ts.medium_transmittance(medium, o, wi, h.t, s);
-                let m = ts.material(&hit);
-                if m.bsdf.is_none() {
-                    medium = ts.medium_beyond(&hit, wi, medium);
-                    o = hit.spawn(wi);
-                    continue;
-                }
-                if m.is_emissive() && (m.double_sided || hit.ng.dot(wi) < 0.0) {
-                    let light_pdf = ts.lights.pdf_hit(scene, p, hit.tri, hit.p);
-                    l += bs.weight * tr * m.emission * sampling::power_heuristic(bs.pdf, light_pdf);
-                }
-                break;
+            let o = ts.spawn_from_triangle(sp.tri, p, wi);
+            if let Some((le, light_pdf)) = emitter_along(ts, p, o, wi, sp.medium(), s) {
+                l += bs.weight * le * sampling::power_heuristic(bs.pdf, light_pdf);
             }
         }
     }
@@ -69,7 +52,13 @@ pub fn direct_at_surface(ts: &TraceScene, sp: &ShadingPoint, s: &mut Sampler) ->
 }
 
 /// Single scattering of direct light along a camera media segment: a point on a light, then
-/// a point on the segment sampled equiangularly towards it (Kulla & Fajardo 2012).
+/// a point x on the segment sampled equiangularly towards it (Kulla & Fajardo 2012); at x, the
+/// light point and a direction drawn from the phase function, combined with the power
+/// heuristic (as the path tracer does). The phase-sampled ray is what finds the light of a
+/// forward-scattering medium: with |g| near 1 the lobe is narrower than any emitter, and a
+/// light point falls in it almost never. (x's density depends on the light point, but
+/// averaged over light points the 1/p(t | light point) factor integrates out, so the
+/// phase-sampled term stays unbiased.)
 pub fn direct_in_medium(ts: &TraceScene, seg: &MediaSegment, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let m = &scene.media[seg.medium as usize];
@@ -84,16 +73,50 @@ pub fn direct_in_medium(ts: &TraceScene, seg: &MediaSegment, s: &mut Sampler) ->
     } else {
         sampling::equiangular(o, d, 0.0, seg.length, lp.p, s.next_1d())
     };
+    let u_phase = s.next_2d();
     if !(pdf_t > 0.0) || !pdf_t.is_finite() {
         return Rgb::ZERO;
     }
     let x = o + d * t;
-    let Some(ls) = ts.lights.connect(scene, &lp, x) else {
-        return Rgb::ZERO;
-    };
-    let phase = HenyeyGreenstein { g: m.g }.eval(-d, ls.wi);
+    let hg = HenyeyGreenstein { g: m.g };
+    let mut l = Rgb::ZERO;
+    if let Some(ls) = ts.lights.connect(scene, &lp, x) {
+        let phase = hg.eval(-d, ls.wi);
+        let tr = ts.shadow_transmittance(x, &ls, Some(seg.medium), s);
+        let w = if ls.pdf > 0.0 {
+            sampling::power_heuristic(ls.pdf, hg.pdf(-d, ls.wi))
+        } else {
+            1.0
+        };
+        l += tr * ls.contribution * phase * w;
+    }
+    let ps = hg.sample(-d, u_phase);
+    if let Some((le, light_pdf)) = emitter_along(ts, x, x, ps.wi, Some(seg.medium), s) {
+        l += le * ps.weight * sampling::power_heuristic(ps.pdf, light_pdf);
+    }
     let sigma_s = m.sigma_s * m.density_at(x);
     let t_cam = media::transmittance(m, o, d, t, s);
-    let tr = ts.shadow_transmittance(x, &ls, Some(seg.medium), s);
-    Rgb::from(seg.throughput) * sigma_s * t_cam * tr * ls.contribution * phase / pdf_t
+    Rgb::from(seg.throughput) * sigma_s * t_cam * l / pdf_t
+}
+
+/// The emitter a ray from `o` (already off its surface, if any) in direction `wi` reaches
+/// through invisible medium boundaries: its radiance times the transmittance on the way, and
+/// the density with which light sampling from `p` would have drawn that point (solid angle).
+fn emitter_along(ts: &TraceScene, p: Vec3, mut o: Vec3, wi: Vec3, mut medium: Option<u32>, s: &mut Sampler) -> Option<(Rgb, f32)> {
+    let mut tr = Rgb::ONE;
+    for _ in 0..MAX_CROSSINGS {
+        let (h, hit) = ts.intersect(o, wi, f32::INFINITY)?;
+        tr *= ts.medium_transmittance(medium, o, wi, h.t, s);
+        let m = ts.material(&hit);
+        if m.bsdf.is_none() {
+            medium = ts.medium_beyond(&hit, wi, medium);
+            o = hit.spawn(wi);
+            continue;
+        }
+        if m.is_emissive() && (m.double_sided || hit.ng.dot(wi) < 0.0) {
+            return Some((tr * m.emission, ts.lights.pdf_hit(&ts.scene, p, hit.tri, hit.p)));
+        }
+        return None;
+    }
+    None
 }

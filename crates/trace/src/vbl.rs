@@ -704,6 +704,10 @@ pub fn vbl_to_media(
 ) -> Rgb {
     let scene = &ts.scene;
     let (mv, mc) = (&scene.media[vrl.medium as usize], &scene.media[seg.medium as usize]);
+    if !crate::components::gathers_in_medium(mc.g) {
+        // A sharp phase function: the camera path's walk carries this light (`components`).
+        return Rgb::ZERO;
+    }
     let r2 = clean_r2(r2);
     let r = r2.sqrt();
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
@@ -781,6 +785,10 @@ pub fn vsl_to_media(
 ) -> Rgb {
     let scene = &ts.scene;
     let m = &scene.media[seg.medium as usize];
+    if !crate::components::gathers_in_medium(m.g) {
+        // A sharp phase function: the camera path's walk carries this light (`components`).
+        return Rgb::ZERO;
+    }
     let r2 = clean_r2(r2);
     let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
     let q = Vec3::from(vpl.pos);

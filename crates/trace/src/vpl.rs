@@ -77,6 +77,10 @@ fn shadow_to_vpl(ts: &TraceScene, vpl: &SurfaceVertex, w: Vec3, dist: f32) -> Li
 pub fn vpl_to_media(ts: &TraceScene, seg: &MediaSegment, vpl: &SurfaceVertex, clamp: f32, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let m = &scene.media[seg.medium as usize];
+    if !crate::components::gathers_in_medium(m.g) {
+        // A sharp phase function: the camera path's walk carries this light (`components`).
+        return Rgb::ZERO;
+    }
     let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
     let q = Vec3::from(vpl.pos);
     let (t, pdf) = sampling::equiangular(o, d, 0.0, seg.length, q, s.next_1d());

@@ -109,6 +109,10 @@ pub fn near_line_pdf(ov: Vec3, dv: Vec3, len: f32, oc: Vec3, dc: Vec3, min_dist:
 pub fn vrl_to_media(ts: &TraceScene, seg: &MediaSegment, vrl: &LightSegment, clamp: f32, s: &mut Sampler) -> Rgb {
     let scene = &ts.scene;
     let (mv, mc) = (&scene.media[vrl.medium as usize], &scene.media[seg.medium as usize]);
+    if !crate::components::gathers_in_medium(mc.g) {
+        // A sharp phase function: the camera path's walk carries this light (`components`).
+        return Rgb::ZERO;
+    }
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
     let (oc, dc) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
     // Stage 1: u on the VRL ∝ 1 / dist(y(u), camera line)².
