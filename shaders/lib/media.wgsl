@@ -65,12 +65,14 @@ fn homogeneous_transmittance(sigma_t: vec3<f32>, t: f32) -> vec3<f32> {
     return select(exp(-sigma_t * t), vec3<f32>(1.0), sigma_t == vec3<f32>(0.0));
 }
 
-// Ratio tracking through a density grid: `walk_majorant_cells` with the body of
-// `tentative_collisions` and of `transmittance`'s closure written inline (WGSL has no closures),
-// in the same order, so the same draws land on the same collisions.
-fn ratio_tracking(m: Medium, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<function, Sampler>) -> vec3<f32> {
-    let sigma_t = m.sigma_s + m.sigma_a;
-    let sigma_max = rgb_max(sigma_t);
+// Ratio tracking through a density grid for one group of channels (`mask`, extinction
+// `sigma_g` = σt · mask, majorant scale `sigma_max`; `media::transmittance_counted`'s loop
+// body): `walk_majorant_cells` with the body of `tentative_collisions` and of the walk's
+// closure written inline (WGSL has no closures), in the same order, so the same draws land on
+// the same collisions. Channels outside the group keep a factor of exactly 1.
+fn ratio_tracking(m: Medium, o: vec3<f32>, d: vec3<f32>, tmax: f32, sigma_g: vec3<f32>, sigma_max: f32, mask: vec3<f32>, s: ptr<function, Sampler>) -> vec3<f32> {
+    let sigma_t = sigma_g;
+    let rest = vec3<f32>(1.0) - mask;
     var tr = vec3<f32>(1.0);
     // Slab test against the grid box. On the CPU, 1/0 = ±∞ and the NaN of 0·∞ (dropped by
     // f32::min/max) settle axis-parallel rays; WGSL may assume neither exists, so such an axis is
@@ -134,13 +136,13 @@ fn ratio_tracking(m: Medium, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<funct
                     }
                     let density = grid_density(m, o + d * tc);
                     tr = tr * (vec3<f32>(1.0) - sigma_t * (density / mu));
-                    let mx = rgb_max(tr);
+                    let mx = rgb_max(tr * mask);
                     if mx < 0.1 {
                         // Russian roulette keeps the expected value and bounds the work.
                         if next_1d(s) >= mx {
-                            return vec3<f32>(0.0);
+                            return rest;
                         }
-                        tr = tr / mx;
+                        tr = tr * mask / mx + rest;
                     }
                 }
             }
@@ -156,17 +158,43 @@ fn ratio_tracking(m: Medium, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<funct
         c[axis] = u32(next);
         t_next[axis] += t_delta[axis];
     }
-    return max(tr, vec3<f32>(0.0));
+    return tr;
 }
+
+// `media::GROUP_RATIO`: channels within this factor of their group's densest share a walk.
+const GROUP_RATIO: f32 = 4.0;
 
 // Transmittance of medium `mi` along o + t·d, t ∈ (0, tmax) (`media::transmittance`): closed
 // form when homogeneous, ratio tracking in a density grid.
 fn transmittance(mi: u32, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<function, Sampler>) -> vec3<f32> {
     let m = media[mi];
+    let sigma_t = m.sigma_s + m.sigma_a;
     if m.grid_res.x == 0u {
-        return homogeneous_transmittance(m.sigma_s + m.sigma_a, tmax);
+        return homogeneous_transmittance(sigma_t, tmax);
     }
-    return ratio_tracking(m, o, d, tmax, s);
+    // `media::extinction_groups`, densest first, one walk each.
+    var left = sigma_t > vec3<f32>(0.0);
+    var tr = vec3<f32>(1.0);
+    for (var k = 0u; k < 3u; k++) {
+        var lead = 0.0;
+        for (var c = 0u; c < 3u; c++) {
+            if left[c] {
+                lead = max(lead, sigma_t[c]);
+            }
+        }
+        if !(lead > 0.0) {
+            break;
+        }
+        var mask = vec3<f32>(0.0);
+        for (var c = 0u; c < 3u; c++) {
+            if left[c] && sigma_t[c] * GROUP_RATIO >= lead {
+                mask[c] = 1.0;
+                left[c] = false;
+            }
+        }
+        tr = tr * ratio_tracking(m, o, d, tmax, sigma_t * mask, lead, mask, s);
+    }
+    return max(tr, vec3<f32>(0.0));
 }
 
 // `TraceScene::medium_transmittance`: NO_MEDIUM is vacuum.

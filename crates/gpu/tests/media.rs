@@ -519,3 +519,16 @@ fn global_medium_without_null_interfaces_matches_cpu() {
     compare("global homogeneous medium", &gpu, global_medium(false), 23, GRID_C);
     compare("global heterogeneous medium", &gpu, global_medium(true), 24, GRID_C);
 }
+
+/// A strongly chromatic grid (green 1000× thinner than red, blue within the ratio of red):
+/// transmittance walks per group of channels (`media::extinction_groups`), in the same order
+/// and with the same draws on the GPU.
+#[test]
+fn strongly_chromatic_grid_matches_cpu() {
+    let Some(gpu) = device::for_tests() else { return };
+    let mut scene = global_medium(true);
+    scene.media[0].sigma_s = Rgb::new(8.0, 0.008, 3.0);
+    scene.media[0].sigma_a = Rgb::new(1.0, 0.001, 0.0);
+    assert_eq!(beamlight_trace::media::extinction_groups(scene.media[0].sigma_t()).count(), 2);
+    compare("global strongly chromatic medium", &gpu, scene, 25, GRID_C);
+}
