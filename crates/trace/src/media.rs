@@ -1,15 +1,16 @@
 //! Distance sampling and transmittance in media, with RGB coefficients handled without bias.
 //!
-//! RGB strategy (documented in docs/media.md):
+//! RGB strategy (documented in docs/rendering.md, "Media"):
 //! * Homogeneous media: closed form. Distances are sampled from the throughput-weighted mixture of
 //!   the three channels' exponentials (one-sample MIS over channels, the "spectral MIS" of
 //!   Miller et al. 2019 in its closed-form case); the returned weight divides by the mixture pdf,
 //!   so every channel is estimated without bias and no channel starves.
-//! * Heterogeneous media: delta tracking against a grey majorant μ̄ = max_c σt_c · d̄(cell) from
-//!   the coarse majorant grid, with the collision type chosen by the throughput-weighted
-//!   "maximum" probabilities of spectral tracking (Kutz et al. 2017). Without emission in the
-//!   medium absorption needs no event, so P(absorb) = 0 and absorption shows up in the weights.
-//!   Transmittance uses ratio tracking with the same majorants.
+//! * Heterogeneous media: channels grouped by extinction ([`extinction_groups`]), each group
+//!   tracked against its own majorant μ = max_{c∈group} σt_c · d̄(cell) from the coarse majorant
+//!   grid. Free flights track one group ([`pick_group`]) with the collision type chosen by the
+//!   throughput-weighted "maximum" probabilities of spectral tracking (Kutz et al. 2017).
+//!   Without emission in the medium absorption needs no event, so P(absorb) = 0 and absorption
+//!   shows up in the weights. Transmittance uses ratio tracking, one walk per group.
 use beamlight_scene::{Rgb, medium::DensityGrid, medium::Medium, rng::Sampler};
 use glam::{UVec3, Vec3};
 
