@@ -173,6 +173,18 @@ pub struct PassTimes {
     /// and the GPU alike), in [`Component::ALL`] order. Zero in a sane scene: anything else is
     /// a bug or a numerical breakdown that would otherwise only show as missing light.
     pub discarded: [u64; N],
+    /// Gather records of the pass: the camera's shading points and media segments, and the
+    /// walks' through sharp media (`beamlight_trace::camera_paths`) points and segments.
+    pub records: Records,
+}
+
+/// How many gather records a pass had, by kind (see [`PassTimes::records`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Records {
+    pub shading_points: u64,
+    pub media_segments: u64,
+    pub walk_points: u64,
+    pub walk_segments: u64,
 }
 
 /// What may enter an accumulator: `v` when it is finite and non-negative; otherwise it counts
@@ -277,6 +289,12 @@ pub fn start_pass(
         .chain(gather.walk_points.iter().map(|w| Some(w.1)))
         .collect();
     let segments: Vec<MediaSegment> = [&gather.media_segments[..], &gather.walk_segments[..]].concat();
+    times.records = Records {
+        shading_points: gather.shading_points.len() as u64,
+        media_segments: gather.media_segments.len() as u64,
+        walk_points: gather.walk_points.len() as u64,
+        walk_segments: gather.walk_segments.len() as u64,
+    };
     let segment_credits: Vec<Option<Component>> = std::iter::repeat_n(None, gather.media_segments.len())
         .chain(std::iter::repeat_n(Some(Component::Lmm), gather.walk_segments.len()))
         .collect();
