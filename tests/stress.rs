@@ -160,11 +160,11 @@ fn extreme_media_and_materials_stay_finite_for_every_method_and_backend() {
 /// converge in a few passes (optical depth up to 2) the mean must also reach it, at every g.
 /// With g = ±0.999 that holds since the camera paths walk through sharp media (issue 15 item
 /// 3, `components`): before, the near-delta phase functions put the many-light estimators'
-/// expected value into connections they almost never sampled, and `vbl` gave 0.99 ± 0.08,
-/// 1.08 ± 0.07, 1.06 ± 0.03 after 32, 128, 512 passes (8×8, σs = 1, 8 paths per pass, mean over
-/// 8 seeds ± its standard error) and `vrl` was heavy-tailed (0.48 ± 0.04, 2.75 ± 2.26,
-/// 1.04 ± 0.57); now `vbl` gives 1.92 ± 0.09, 1.91 ± 0.05, 2.00 ± 0.03 (tests/vbl_progressive.rs
-/// checks it at standard errors). At σs = 1000 (optical depth 2000, albedo 1) a path needs
+/// expected value into connections they almost never sampled, and `vbl` gave 0.85 ± 0.04 at
+/// g = 0.999 and 0.92 ± 0.12 at −0.999 after 1024 passes (8×8, σs = 1, 8 paths per pass,
+/// batch-mean standard errors; `vbl_furnace_converges_to_two` run on the code before); now
+/// 2.00 ± 0.03 and 1.98 ± 0.04 after 512 passes (mean over 8 seeds), and that test checks it
+/// at standard errors. At σs = 1000 (optical depth 2000, albedo 1) a path needs
 /// ~10⁶ bounces to reach a wall, Russian roulette (survival ≤ 0.95) ends it long before, and
 /// every method, `pt` included, gives 0 in practice: unbiased in expectation, useless in
 /// practice.
