@@ -4,7 +4,8 @@
 //! triangle test of our own), because on this kind of data the time goes into three things that
 //! obvhs's closure-per-primitive traversal cannot change:
 //! * the node test: obvhs converts the 48 quantized plane bytes to floats one at a time; ours
-//!   widens eight at a time (SSE2), with the near and far planes chosen once per ray;
+//!   widens eight at a time (SSE2), or tests all eight children in one AVX2 register, and turns
+//!   the hits into obvhs's hit mask without a loop;
 //! * the triangle test: the watertight test's axis permutation is resolved once per ray, and the
 //!   triangles are stored by coordinate rows so that its edge functions for a triangle take three
 //!   4-wide loads and a dozen vector operations. Those are bit for bit the operations of
@@ -91,12 +92,44 @@ impl Bvh {
 
     /// Closest hit with `t` in `(0, tmax)` along `o + t·d` (`d` unit length).
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if avx2() {
+            // SAFETY: the CPU has the features `closest_hit_avx2` is compiled for.
+            return unsafe { self.closest_hit_avx2(o, d, tmax) };
+        }
+        self.closest_hit_with::<false>(o, d, tmax)
+    }
+
+    /// True when anything lies on `o + t·d` for `t` in `(0, tmax)`.
+    pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if avx2() {
+            // SAFETY: the CPU has the features `occluded_avx2` is compiled for.
+            return unsafe { self.occluded_avx2(o, d, tmax) };
+        }
+        self.occluded_with::<false>(o, d, tmax)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn closest_hit_avx2(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        self.closest_hit_with::<true>(o, d, tmax)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn occluded_avx2(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        self.occluded_with::<true>(o, d, tmax)
+    }
+
+    #[inline(always)]
+    fn closest_hit_with<const AVX2: bool>(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let tri_ray = TriangleRay::new(o, d);
         let edges = EdgeTest::new(&tri_ray);
         let mut best: Option<(f32, f32, f32, u32)> = None;
         let mut t_best = tmax;
-        traverse(bvh, &self.leaves, NodeRay::new(o, d, tmax), |k, cull| {
+        traverse::<_, AVX2>(bvh, &self.leaves, NodeRay::new(o, d, tmax), |k, cull| {
             let tri = &self.leaves[k];
             if edges.may_hit(tri.floats())
                 && let Some(h) = tri_ray.intersect_rows(&tri.rows, 0.0, t_best)
@@ -110,14 +143,14 @@ impl Bvh {
         best.map(|(t, b1, b2, tri)| Hit { t, tri, b1, b2 })
     }
 
-    /// True when anything lies on `o + t·d` for `t` in `(0, tmax)`.
-    pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+    #[inline(always)]
+    fn occluded_with<const AVX2: bool>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let tri_ray = TriangleRay::new(o, d);
         let edges = EdgeTest::new(&tri_ray);
         let mut blocked = false;
         // Stop at the first triangle that blocks: no closest-hit bookkeeping.
-        traverse(bvh, &self.leaves, NodeRay::new(o, d, tmax), |k, _| {
+        traverse::<_, AVX2>(bvh, &self.leaves, NodeRay::new(o, d, tmax), |k, _| {
             let tri = &self.leaves[k];
             blocked = edges.may_hit(tri.floats()) && tri_ray.intersect_rows(&tri.rows, 0.0, tmax).is_some();
             blocked
@@ -135,6 +168,18 @@ pub fn obvhs_triangles(tris: &[[Vec3; 3]]) -> Vec<ObvhsTriangle> {
             v2: p[2].into(),
         })
         .collect()
+}
+
+/// Whether the CPU has what the eight-wide node test is compiled for (any x86-64 since 2013).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("fma")
+        && std::arch::is_x86_feature_detected!("bmi1")
+        && std::arch::is_x86_feature_detected!("bmi2")
+        && std::arch::is_x86_feature_detected!("lzcnt")
+        && std::arch::is_x86_feature_detected!("popcnt")
 }
 
 #[inline(always)]
@@ -220,6 +265,48 @@ impl NodeRay {
         hitmask
     }
 
+    /// [`Self::hitmask`] eight lanes wide.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    #[inline]
+    unsafe fn hitmask_avx2(&self, node: &CwBvhNode, hi: f32) -> u32 {
+        use std::arch::x86_64::*;
+        let e = node.compute_extent();
+        let scale = e * self.inv;
+        let start = (Vec3A::from(node.p) - self.o) * self.inv;
+        let base = (node as *const CwBvhNode).cast::<u8>();
+        // SAFETY: every load reads 8 bytes inside `node`.
+        let bytes = |offset: usize| _mm256_cvtepu8_epi32(unsafe { _mm_loadl_epi64(base.add(offset).cast()) });
+        let t = |offset: usize, s: f32, b: f32| {
+            _mm256_fmadd_ps(_mm256_cvtepi32_ps(bytes(offset)), _mm256_set1_ps(s), _mm256_set1_ps(b))
+        };
+        let tmin = _mm256_max_ps(
+            _mm256_max_ps(t(self.near[0], scale.x, start.x), t(self.near[1], scale.y, start.y)),
+            _mm256_max_ps(t(self.near[2], scale.z, start.z), _mm256_setzero_ps()),
+        );
+        let tmax = _mm256_min_ps(
+            _mm256_min_ps(t(self.far[0], scale.x, start.x), t(self.far[1], scale.y, start.y)),
+            _mm256_min_ps(t(self.far[2], scale.z, start.z), _mm256_set1_ps(hi)),
+        );
+        let tmax = _mm256_fmadd_ps(tmax, _mm256_set1_ps(BOX_SLACK), _mm256_set1_ps(self.margin));
+        let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax));
+        // obvhs's `get_child_and_index_bits`, one child per lane: an inner child (meta 24..32)
+        // sets bit 24 + (slot ^ octant); a leaf sets its unary primitive count (meta >> 5) at
+        // its first primitive's offset (meta & 31).
+        let meta = bytes(std::mem::offset_of!(CwBvhNode, child_meta));
+        let inner = _mm256_cmpeq_epi32(_mm256_and_si256(meta, _mm256_set1_epi32(0x18)), _mm256_set1_epi32(0x18));
+        let octant = _mm256_and_si256(inner, _mm256_set1_epi32((self.oct_inv4 & 0xff) as i32));
+        let index = _mm256_and_si256(_mm256_xor_si256(meta, octant), _mm256_set1_epi32(0x1f));
+        let count = _mm256_srli_epi32::<5>(meta);
+        let bits = _mm256_and_si256(_mm256_sllv_epi32(count, index), hit);
+        let half = _mm_or_si128(_mm256_castsi256_si128(bits), _mm256_extracti128_si256::<1>(bits));
+        let pair = _mm_or_si128(half, _mm_unpackhi_epi64(half, half));
+        _mm_cvtsi128_si32(_mm_or_si128(pair, _mm_srli_epi64::<32>(pair))) as u32
+    }
+
     /// Bit `i` set when the ray meets child slot `i`'s box before `hi` (empty slots may be
     /// set too; the caller masks them out).
     #[inline(always)]
@@ -280,7 +367,12 @@ impl NodeRay {
 /// prefetching): calls `visit(k, &mut hi)` for every leaf-order primitive `k` whose leaf box the
 /// ray meets before `hi`; `visit` may lower `hi` and returns true to stop.
 #[inline(always)]
-fn traverse<F: FnMut(usize, &mut f32) -> bool>(bvh: &CwBvh, prims: &[LeafTriangle], ray: NodeRay, mut visit: F) {
+fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
+    bvh: &CwBvh,
+    prims: &[LeafTriangle],
+    ray: NodeRay,
+    mut visit: F,
+) {
     let oct_inv4 = ray.oct_inv4;
     let mut hi = ray.hi;
     // Node groups still to visit (obvhs's stack; a CWBVH over 2³² triangles is far shallower).
@@ -300,7 +392,17 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool>(bvh: &CwBvh, prims: &[LeafTriangl
             let slot_index = (child_index_offset - 24) ^ (oct_inv4 & 0xff);
             let relative_index = (hits_imask & !(0xffffffffu32 << slot_index)).count_ones();
             let node = &bvh.nodes[(child_index_base + relative_index) as usize];
-            let hitmask = ray.hitmask(node, hi);
+            let hitmask = if AVX2 {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: only instantiated behind `avx2()`.
+                unsafe {
+                    ray.hitmask_avx2(node, hi)
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                unreachable!()
+            } else {
+                ray.hitmask(node, hi)
+            };
             // Prefetch every child node and triangle the ray enters, so that their cache misses
             // overlap instead of being paid one after another as the traversal reaches them.
             let mut inner = hitmask >> 24;
@@ -348,9 +450,19 @@ mod tests {
     use crate::geometry::intersect_triangle;
     use beamlight_scene::rng::Sampler;
 
-    /// Closest hit and occlusion.
+    /// Closest hit and occlusion by every traversal this machine can run: the SSE2 node test,
+    /// and the AVX2 one where the CPU has it.
     fn queries(bvh: &Bvh, o: Vec3, d: Vec3, tmax: f32) -> Vec<(Option<Hit>, bool)> {
-        vec![(bvh.closest_hit(o, d, tmax), bvh.occluded(o, d, tmax))]
+        let mut out = vec![(
+            bvh.closest_hit_with::<false>(o, d, tmax),
+            bvh.occluded_with::<false>(o, d, tmax),
+        )];
+        #[cfg(target_arch = "x86_64")]
+        if avx2() {
+            // SAFETY: the CPU has the features these are compiled for.
+            out.push(unsafe { (bvh.closest_hit_avx2(o, d, tmax), bvh.occluded_avx2(o, d, tmax)) });
+        }
+        out
     }
 
     /// The closest of `intersect_triangle`'s hits over all triangles: (t, b1, b2, index).
