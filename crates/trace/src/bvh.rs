@@ -7,10 +7,10 @@
 //!   widens eight at a time (SSE2), or tests all eight children in one AVX2 register, and turns
 //!   the hits into obvhs's hit mask without a loop;
 //! * the triangle test: the watertight test's axis permutation is resolved once per ray, and the
-//!   triangles are stored by coordinate rows so that its edge functions for a triangle take three
-//!   4-wide loads and a dozen vector operations. Those are bit for bit the operations of
-//!   [`TriangleRay::intersect`], so a rejection there is exactly its rejection; only the few
-//!   triangles that pass go through the full exact test, which then reports the hit;
+//!   triangles are stored by coordinate rows, so that the test's first half (the sheared
+//!   vertices and the three edge functions) takes three 4-wide loads and a dozen vector
+//!   operations ([`EdgeTest`]). Most triangles a ray misses end there; the rest continue in the
+//!   scalar code of [`TriangleRay::intersect`] itself, so the hits are its hits, bit for bit;
 //! * memory: on large meshes most node and triangle reads miss every cache, and each costs about
 //!   150 ns on the CI machine, as much as testing a few nodes. Each triangle's input index sits
 //!   in the same record as its rows (no lookup after a hit); every child node and triangle the
@@ -104,8 +104,8 @@ impl Ahead {
 /// 43 % / 42 % faster.
 const LOOKAHEAD_BYTES: usize = 12 << 20;
 
-/// A triangle as the traversal reads it: its coordinate rows for [`EdgeTest::may_hit`] and
-/// [`TriangleRay::intersect_rows`], and its index in the input, in one 40-byte record.
+/// A triangle as the traversal reads it: its coordinate rows for [`EdgeTest::intersect`] and
+/// its index in the input, in one 40-byte record.
 #[derive(Clone, Copy, Pod, Zeroable)]
 #[repr(C)]
 struct LeafTriangle {
@@ -114,7 +114,7 @@ struct LeafTriangle {
 }
 
 impl LeafTriangle {
-    /// The rows and then the index's bits, for [`EdgeTest::may_hit`]'s 4-wide loads.
+    /// The rows and then the index's bits, for [`EdgeTest::intersect`]'s 4-wide loads.
     #[inline(always)]
     fn floats(&self) -> &[f32; 10] {
         bytemuck::cast_ref(self)
@@ -198,15 +198,12 @@ impl Bvh {
     #[inline(always)]
     fn closest_hit_with<const AVX2: bool>(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
-        let tri_ray = TriangleRay::new(o, d);
-        let edges = EdgeTest::new(&tri_ray);
+        let edges = EdgeTest::new(&TriangleRay::new(o, d));
         let mut best: Option<(f32, f32, f32, u32)> = None;
         let mut t_best = tmax;
         traverse::<_, AVX2>(bvh, &self.leaves, &self.ahead, NodeRay::new(o, d, tmax), |k, cull| {
             let tri = &self.leaves[k];
-            if edges.may_hit(tri.floats())
-                && let Some(h) = tri_ray.intersect_rows(&tri.rows, 0.0, t_best)
-            {
+            if let Some(h) = edges.intersect(tri.floats(), 0.0, t_best) {
                 t_best = h.0;
                 *cull = cull_beyond(t_best);
                 best = Some((h.0, h.1, h.2, tri.index));
@@ -219,13 +216,12 @@ impl Bvh {
     #[inline(always)]
     fn occluded_with<const AVX2: bool>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
-        let tri_ray = TriangleRay::new(o, d);
-        let edges = EdgeTest::new(&tri_ray);
+        let edges = EdgeTest::new(&TriangleRay::new(o, d));
         let mut blocked = false;
         // Stop at the first triangle that blocks: no closest-hit bookkeeping.
         traverse::<_, AVX2>(bvh, &self.leaves, &self.ahead, NodeRay::new(o, d, tmax), |k, _| {
             let tri = &self.leaves[k];
-            blocked = edges.may_hit(tri.floats()) && tri_ray.intersect_rows(&tri.rows, 0.0, tmax).is_some();
+            blocked = edges.intersect(tri.floats(), 0.0, tmax).is_some();
             blocked
         });
         blocked

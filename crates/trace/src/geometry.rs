@@ -36,6 +36,7 @@ impl TriangleRay {
         } else {
             2
         };
+        let (o, d) = (o.to_array(), d.to_array());
         let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
@@ -68,9 +69,33 @@ impl TriangleRay {
         let (ax, ay) = (a_kx - sx * a_kz, a_ky - sy * a_kz);
         let (bx, by) = (b_kx - sx * b_kz, b_ky - sy * b_kz);
         let (cx, cy) = (c_kx - sx * c_kz, c_ky - sy * c_kz);
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        Self::finish(
+            sz,
+            [ax, bx, cx],
+            [ay, by, cy],
+            [a_kz, b_kz, c_kz],
+            [u, v, w],
+            tmin,
+            tmax,
+        )
+    }
+
+    /// The rest of [`Self::intersect_rows`] from the sheared vertices `x`, `y` (a, b, c), their
+    /// unsheared permuted z, and the edge functions `e` = (u, v, w): shared with [`EdgeTest`],
+    /// so that both give the same hits bit for bit.
+    #[inline(always)]
+    fn finish(
+        sz: f32,
+        [ax, bx, cx]: [f32; 3],
+        [ay, by, cy]: [f32; 3],
+        [a_kz, b_kz, c_kz]: [f32; 3],
+        [mut u, mut v, mut w]: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(f32, f32, f32)> {
         // Exactly on an edge in f32: decide in f64 so neighbouring triangles agree.
         if u == 0.0 || v == 0.0 || w == 0.0 {
             let e = |px: f32, py: f32, qx: f32, qy: f32| (px as f64 * qy as f64 - py as f64 * qx as f64) as f32;
@@ -126,10 +151,12 @@ pub fn vertices_to_rows(p: &[Vec3; 3]) -> TriangleRows {
     [p[0].x, p[1].x, p[2].x, p[0].y, p[1].y, p[2].y, p[0].z, p[1].z, p[2].z]
 }
 
-/// [`TriangleRay`]'s edge test, four lanes wide, on triangles stored by rows: the three edge
-/// functions `(u, v, w)` come out of the same IEEE operations in the same order as in
-/// [`TriangleRay::intersect`], so a triangle this rejects is one `intersect` rejects, bit for bit.
-/// It only rejects; whatever passes goes to `intersect` itself, which then computes the hit.
+/// [`TriangleRay::intersect_rows`] with its first half four lanes wide: the three vertices' sheared
+/// coordinates and the three edge functions `(u, v, w)` come out of the same IEEE operations in
+/// the same order as there, one vertex or edge per lane, and most triangles a ray misses are
+/// rejected right there (a strict sign disagreement with no zero, which `intersect_rows` rejects
+/// too). The rest goes through the same scalar code as `intersect_rows`, so the hits are its
+/// hits, bit for bit.
 #[derive(Clone, Copy, Debug)]
 pub struct EdgeTest {
     /// Offsets (in floats) of the permuted x, y and z rows.
@@ -137,6 +164,7 @@ pub struct EdgeTest {
     o: [Vec4; 3],
     sx: Vec4,
     sy: Vec4,
+    sz: f32,
 }
 
 impl EdgeTest {
@@ -148,14 +176,14 @@ impl EdgeTest {
             o: [Vec4::splat(o[0]), Vec4::splat(o[1]), Vec4::splat(o[2])],
             sx: Vec4::splat(ray.sx),
             sy: Vec4::splat(ray.sy),
+            sz: ray.sz,
         }
     }
 
-    /// False when [`TriangleRay::intersect`] certainly misses the triangle whose rows are the
-    /// first nine floats of `rows` (a strict sign disagreement of its edge functions, none of them
-    /// zero). The tenth float only pads the last 4-wide load.
+    /// The hit of the triangle whose rows are the first nine floats of `rows`, exactly as
+    /// [`TriangleRay::intersect_rows`] gives it. The tenth float only pads the last 4-wide load.
     #[inline(always)]
-    pub fn may_hit(&self, rows: &[f32; 10]) -> bool {
+    pub fn intersect(&self, rows: &[f32; 10], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
         let rows = rows.as_ptr();
         // SAFETY: offsets are 0, 3 or 6, so each load reads floats inside the ten.
         let load = |k: usize| Vec4::from_array(unsafe { rows.add(k).cast::<[f32; 4]>().read_unaligned() });
@@ -163,7 +191,7 @@ impl EdgeTest {
         let x = load(self.offsets[0]) - self.o[0];
         let y = load(self.offsets[1]) - self.o[1];
         let z = load(self.offsets[2]) - self.o[2];
-        // (ax, bx, cx) and (ay, by, cy) of `intersect`: p[kx] − sx·p[kz], p[ky] − sy·p[kz].
+        // (ax, bx, cx) and (ay, by, cy) of `intersect_rows`: p[kx] − sx·p[kz], p[ky] − sy·p[kz].
         let xs = x - self.sx * z;
         let ys = y - self.sy * z;
         // (u, v, w) = (cx·by − cy·bx, ax·cy − ay·cx, bx·ay − by·ax).
@@ -171,8 +199,11 @@ impl EdgeTest {
         let neg = e.cmplt(Vec4::ZERO).bitmask() & 7;
         let pos = e.cmpgt(Vec4::ZERO).bitmask() & 7;
         let zero = e.cmpeq(Vec4::ZERO).bitmask() & 7;
-        // `intersect` decides a zero in f64 and rejects a sign disagreement.
-        zero != 0 || neg == 0 || pos == 0
+        if zero == 0 && neg != 0 && pos != 0 {
+            return None;
+        }
+        let lanes = |v: Vec4| [v.x, v.y, v.z];
+        TriangleRay::finish(self.sz, lanes(xs), lanes(ys), lanes(z), lanes(e), tmin, tmax)
     }
 }
 
@@ -280,14 +311,13 @@ mod tests {
         }
     }
 
-    /// `EdgeTest` (the BVH's fast path) may reject only triangles `intersect` misses: random
+    /// `EdgeTest` (the BVH's fast path) gives exactly `intersect`'s hits, bit for bit: random
     /// triangles (some degenerate) at several scales and offsets, and rays through their
-    /// vertices, their edges, and points inside and outside them. It must also reject most
-    /// misses, or it would be no filter at all.
+    /// vertices, their edges, and points inside and outside them.
     #[test]
-    fn edge_test_rejects_only_what_intersect_misses() {
+    fn edge_test_gives_intersects_hits() {
         let mut s = beamlight_scene::rng::Sampler::new(7, 0, 0);
-        let (mut hits, mut misses, mut rejected) = (0, 0, 0);
+        let (mut hits, mut misses) = (0, 0);
         for (scale, offset) in [(1.0f32, 0.0f32), (1e-4, 0.0), (1e4, 0.0), (1.0, 1e3)] {
             let mut rnd = || Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5;
             for k in 0..20000 {
@@ -311,21 +341,22 @@ mod tests {
                 let ray = TriangleRay::new(o, d);
                 let rows = vertices_to_rows(&p);
                 let padded: [f32; 10] = std::array::from_fn(|i| rows.get(i).copied().unwrap_or(f32::NAN));
-                let may_hit = EdgeTest::new(&ray).may_hit(&padded);
-                if ray.intersect(&p, 0.0, f32::INFINITY).is_some() {
-                    assert!(may_hit, "rejected a hit: {p:?}, ray {o} → {d}");
+                let tmax = [f32::INFINITY, scale][k % 2];
+                let exact = ray.intersect(&p, 0.0, tmax);
+                let bits = |h: Option<(f32, f32, f32)>| h.map(|(t, b1, b2)| [t, b1, b2].map(f32::to_bits));
+                assert_eq!(
+                    bits(EdgeTest::new(&ray).intersect(&padded, 0.0, tmax)),
+                    bits(exact),
+                    "{p:?}, ray {o} → {d}, tmax {tmax}"
+                );
+                if exact.is_some() {
                     hits += 1;
                 } else {
                     misses += 1;
-                    rejected += !may_hit as u32;
                 }
             }
         }
         assert!(hits > 20000 && misses > 10000, "{hits} hits, {misses} misses");
-        assert!(
-            rejected as f32 > 0.7 * misses as f32,
-            "rejected {rejected} of {misses} misses"
-        );
     }
 
     #[test]
