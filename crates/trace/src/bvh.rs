@@ -15,8 +15,9 @@
 //!   150 ns on the CI machine, as much as testing a few nodes. Each triangle's input index sits
 //!   in the same record as its rows (no lookup after a hit); every child node and triangle the
 //!   ray enters is prefetched as soon as its parent is tested; and on meshes too large for the
-//!   caches a parent also prefetches what each entered child points to, its children and its
-//!   triangles ([`Ahead`]), so the traversal waits for one miss per two levels, not per level.
+//!   caches a parent also prefetches what the entered children point to, their triangles and the
+//!   nearest one's children ([`Ahead`]), so the traversal mostly waits for one miss per two
+//!   levels, not per level. On meshes that fit in the caches nothing is prefetched.
 //!
 //! Box tests are conservative by a bound on their rounding error ([`SLAB_ERROR`]) and the
 //! triangle test is exactly [`crate::geometry::intersect_triangle`]: the hits are that function's,
@@ -49,6 +50,8 @@ pub struct Bvh {
     /// Per node, what its parent prefetches two levels ahead (see [`Ahead`]); empty when the
     /// nodes and triangles fit in the caches ([`LOOKAHEAD_BYTES`]).
     ahead: Vec<Ahead>,
+    /// Whether to prefetch at all ([`PREFETCH_BYTES`]).
+    prefetch: bool,
 }
 
 /// Where a node's own triangles (those of its leaf children) and its inner children lie, so
@@ -104,6 +107,12 @@ impl Ahead {
 /// 43 % / 42 % faster.
 const LOOKAHEAD_BYTES: usize = 12 << 20;
 
+/// Below this many bytes of nodes and triangles, nothing is prefetched: it all stays in the
+/// caches. On the CI machine (as for [`LOOKAHEAD_BYTES`], without `ahead`): 4 k triangles
+/// (0.2 MiB) 11 % / 12 % slower with prefetching, 16 k (0.8 MiB) 5 % / 9 % slower, 65 k
+/// (3.1 MiB) 5 % / 11 % faster.
+const PREFETCH_BYTES: usize = 2 << 20;
+
 /// A triangle as the traversal reads it: its coordinate rows for [`EdgeTest::intersect`] and
 /// its index in the input, in one 40-byte record.
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -133,6 +142,7 @@ impl Bvh {
                 bvh: None,
                 leaves: Vec::new(),
                 ahead: Vec::new(),
+                prefetch: false,
             };
         }
         let prims = obvhs_triangles(&tris);
@@ -156,6 +166,7 @@ impl Bvh {
             bvh: Some(bvh),
             leaves,
             ahead,
+            prefetch: bytes > PREFETCH_BYTES,
         }
     }
 
@@ -201,15 +212,22 @@ impl Bvh {
         let edges = EdgeTest::new(&TriangleRay::new(o, d));
         let mut best: Option<(f32, f32, f32, u32)> = None;
         let mut t_best = tmax;
-        traverse::<_, AVX2>(bvh, &self.leaves, &self.ahead, NodeRay::new(o, d, tmax), |k, cull| {
-            let tri = &self.leaves[k];
-            if let Some(h) = edges.intersect(tri.floats(), 0.0, t_best) {
-                t_best = h.0;
-                *cull = cull_beyond(t_best);
-                best = Some((h.0, h.1, h.2, tri.index));
-            }
-            false
-        });
+        traverse::<_, AVX2>(
+            bvh,
+            &self.leaves,
+            &self.ahead,
+            self.prefetch,
+            NodeRay::new(o, d, tmax),
+            |k, cull| {
+                let tri = &self.leaves[k];
+                if let Some(h) = edges.intersect(tri.floats(), 0.0, t_best) {
+                    t_best = h.0;
+                    *cull = cull_beyond(t_best);
+                    best = Some((h.0, h.1, h.2, tri.index));
+                }
+                false
+            },
+        );
         best.map(|(t, b1, b2, tri)| Hit { t, tri, b1, b2 })
     }
 
@@ -219,11 +237,18 @@ impl Bvh {
         let edges = EdgeTest::new(&TriangleRay::new(o, d));
         let mut blocked = false;
         // Stop at the first triangle that blocks: no closest-hit bookkeeping.
-        traverse::<_, AVX2>(bvh, &self.leaves, &self.ahead, NodeRay::new(o, d, tmax), |k, _| {
-            let tri = &self.leaves[k];
-            blocked = edges.intersect(tri.floats(), 0.0, tmax).is_some();
-            blocked
-        });
+        traverse::<_, AVX2>(
+            bvh,
+            &self.leaves,
+            &self.ahead,
+            self.prefetch,
+            NodeRay::new(o, d, tmax),
+            |k, _| {
+                let tri = &self.leaves[k];
+                blocked = edges.intersect(tri.floats(), 0.0, tmax).is_some();
+                blocked
+            },
+        );
         blocked
     }
 }
@@ -464,6 +489,7 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
     bvh: &CwBvh,
     prims: &[LeafTriangle],
     ahead: &[Ahead],
+    prefetch: bool,
     ray: NodeRay,
     mut visit: F,
 ) {
@@ -497,31 +523,43 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
             } else {
                 ray.hitmask(node, hi)
             };
-            // Prefetch every child node and triangle the ray enters, nearest first, so that their
-            // cache misses overlap instead of being paid one after another as the traversal
-            // reaches them; on large meshes also what those children point to (see `Ahead`).
-            let mut inner = hitmask >> 24;
-            while inner != 0 {
-                let bit = 31 - inner.leading_zeros();
-                inner &= !(1 << bit);
-                let slot = bit ^ (oct_inv4 & 0xff);
-                let child =
-                    (node.child_base_idx + (node.imask as u32 & !(0xffffffffu32 << slot)).count_ones()) as usize;
-                prefetch_range(bvh.nodes.as_ptr().wrapping_add(child), 1);
-                if let Some(a) = ahead.get(child) {
-                    let (first, count) = a.triangles();
-                    prefetch_range(prims.as_ptr().wrapping_add(first), count);
-                    let (first, count) = a.children();
-                    prefetch_range(bvh.nodes.as_ptr().wrapping_add(first), count);
-                    // The entries the child will read here for its own children.
-                    prefetch_range(ahead.as_ptr().wrapping_add(first), count);
+            if prefetch {
+                // Prefetch the child nodes the ray enters, nearest first, so that their cache
+                // misses overlap instead of being paid one after another as the traversal
+                // reaches them. With `ahead` (large meshes), also what the entered children point
+                // to: their triangles (so a node's triangles are on their way before it is even
+                // tested), the side-table entries they will read, and the nearest one's children
+                // (everyone's children costs more in memory traffic than it saves in waiting:
+                // 10 % slower on the 1 M-triangle sphere). Without, this node's entered leaves.
+                let mut inner = hitmask >> 24;
+                let mut nearest = true;
+                while inner != 0 {
+                    let bit = 31 - inner.leading_zeros();
+                    inner &= !(1 << bit);
+                    let slot = bit ^ (oct_inv4 & 0xff);
+                    let child =
+                        (node.child_base_idx + (node.imask as u32 & !(0xffffffffu32 << slot)).count_ones()) as usize;
+                    prefetch_range(bvh.nodes.as_ptr().wrapping_add(child), 1);
+                    if let Some(a) = ahead.get(child) {
+                        let (first, count) = a.triangles();
+                        prefetch_range(prims.as_ptr().wrapping_add(first), count);
+                        let (first, count) = a.children();
+                        if nearest {
+                            prefetch_range(bvh.nodes.as_ptr().wrapping_add(first), count);
+                        }
+                        // The entries the child will read here for its own children.
+                        prefetch_range(ahead.as_ptr().wrapping_add(first), count);
+                    }
+                    nearest = false;
                 }
-            }
-            let mut leaves = hitmask & 0x00ffffff;
-            while leaves != 0 {
-                let first = (node.primitive_base_idx + leaves.trailing_zeros()) as usize;
-                leaves &= leaves - 1;
-                prefetch_range(prims.as_ptr().wrapping_add(first), 1);
+                if ahead.is_empty() {
+                    let mut leaves = hitmask & 0x00ffffff;
+                    while leaves != 0 {
+                        let first = (node.primitive_base_idx + leaves.trailing_zeros()) as usize;
+                        leaves &= leaves - 1;
+                        prefetch_range(prims.as_ptr().wrapping_add(first), 1);
+                    }
+                }
             }
             current_group = UVec2::new(node.child_base_idx, (hitmask & 0xff000000) | (node.imask as u32));
             // The node's triangles, in obvhs's order.
