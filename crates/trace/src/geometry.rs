@@ -135,16 +135,6 @@ impl TriangleRay {
 /// 4-wide load fetches one coordinate of all three vertices (the fourth lane is ignored).
 pub type TriangleRows = [f32; 9];
 
-/// The vertices of a triangle stored by rows.
-#[inline(always)]
-pub fn rows_to_vertices(r: &TriangleRows) -> [Vec3; 3] {
-    [
-        Vec3::new(r[0], r[3], r[6]),
-        Vec3::new(r[1], r[4], r[7]),
-        Vec3::new(r[2], r[5], r[8]),
-    ]
-}
-
 /// The rows of a triangle (see [`TriangleRows`]).
 #[inline(always)]
 pub fn vertices_to_rows(p: &[Vec3; 3]) -> TriangleRows {
