@@ -276,15 +276,21 @@ fn avx2() -> bool {
         && std::arch::is_x86_feature_detected!("popcnt")
 }
 
-/// Prefetches the cache lines of `count` elements from `start` (none when `count` is 0).
+/// Prefetches the first and last byte of the `T` at `p` (all its lines when it spans at most
+/// two, as nodes, triangles and eight side-table entries do).
 #[inline(always)]
-fn prefetch_range<T>(start: *const T, count: usize) {
+fn prefetch_one<T>(p: *const T) {
+    prefetch(p);
+    prefetch(p.cast::<u8>().wrapping_add(size_of::<T>() - 1));
+}
+
+/// Prefetches `LINES` lines from `start`, unrolled: a loop over the exact count mispredicts its
+/// exit once per call, which cost more than the extra lines (6-16 % on the 1 M-triangle sphere).
+#[inline(always)]
+fn prefetch_lines<const LINES: usize, T>(start: *const T) {
     let start = start.cast::<u8>();
-    let mut line = start.wrapping_sub(start as usize % 64);
-    let end = start.wrapping_add(count * size_of::<T>());
-    while line < end {
-        prefetch(line);
-        line = line.wrapping_add(64);
+    for i in 0..LINES {
+        prefetch(start.wrapping_add(64 * i));
     }
 }
 
@@ -539,16 +545,20 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
                     let slot = bit ^ (oct_inv4 & 0xff);
                     let child =
                         (node.child_base_idx + (node.imask as u32 & !(0xffffffffu32 << slot)).count_ones()) as usize;
-                    prefetch_range(bvh.nodes.as_ptr().wrapping_add(child), 1);
+                    prefetch_one(bvh.nodes.as_ptr().wrapping_add(child));
                     if let Some(a) = ahead.get(child) {
+                        // A node's triangles (at most 24 of 40 bytes) span at most 16 lines.
                         let (first, count) = a.triangles();
-                        prefetch_range(prims.as_ptr().wrapping_add(first), count);
+                        if count > 0 {
+                            prefetch_lines::<16, _>(prims.as_ptr().wrapping_add(first));
+                        }
                         let (first, count) = a.children();
-                        if nearest {
-                            prefetch_range(bvh.nodes.as_ptr().wrapping_add(first), count);
+                        // Its children (at most 8 of 80 bytes) span at most 11.
+                        if nearest && count > 0 {
+                            prefetch_lines::<11, _>(bvh.nodes.as_ptr().wrapping_add(first));
                         }
                         // The entries the child will read here for its own children.
-                        prefetch_range(ahead.as_ptr().wrapping_add(first), count);
+                        prefetch_one(ahead.as_ptr().wrapping_add(first).cast::<[Ahead; 8]>());
                     }
                     nearest = false;
                 }
@@ -557,7 +567,7 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
                     while leaves != 0 {
                         let first = (node.primitive_base_idx + leaves.trailing_zeros()) as usize;
                         leaves &= leaves - 1;
-                        prefetch_range(prims.as_ptr().wrapping_add(first), 1);
+                        prefetch_one(prims.as_ptr().wrapping_add(first));
                     }
                 }
             }
