@@ -13,11 +13,10 @@
 //!   scalar code of [`TriangleRay::intersect`] itself, so the hits are its hits, bit for bit;
 //! * memory: on large meshes most node and triangle reads miss every cache, and each costs about
 //!   150 ns on the CI machine, as much as testing a few nodes. Each triangle's input index sits
-//!   in the same record as its rows (no lookup after a hit); every child node and triangle the
-//!   ray enters is prefetched as soon as its parent is tested; and on meshes too large for the
-//!   caches a parent also prefetches what the entered children point to, their triangles and the
-//!   nearest one's children ([`Ahead`]), so the traversal mostly waits for one miss per two
-//!   levels, not per level. On meshes that fit in the caches nothing is prefetched.
+//!   in the same record as its rows (no lookup after a hit). Every child node the ray enters is
+//!   prefetched as soon as its parent is tested, together with what it points to: its triangles
+//!   and, for the nearest, its children ([`Ahead`]), so the traversal mostly waits for one miss
+//!   per two levels, not per level. On meshes that fit in the caches nothing is prefetched.
 //!
 //! Box tests are conservative by a bound on their rounding error ([`SLAB_ERROR`]) and the
 //! triangle test is exactly [`crate::geometry::intersect_triangle`]: the hits are that function's,
@@ -47,11 +46,9 @@ pub struct Bvh {
     bvh: Option<CwBvh>,
     /// Triangles in BVH leaf order: `leaves[k]` is triangle `bvh.primitive_indices[k]`.
     leaves: Vec<LeafTriangle>,
-    /// Per node, what its parent prefetches two levels ahead (see [`Ahead`]); empty when the
-    /// nodes and triangles fit in the caches ([`LOOKAHEAD_BYTES`]).
+    /// Per node, what its parent prefetches (see [`Ahead`]); empty, and nothing prefetched,
+    /// when the nodes and triangles fit in the caches ([`PREFETCH_BYTES`]).
     ahead: Vec<Ahead>,
-    /// Whether to prefetch at all ([`PREFETCH_BYTES`]).
-    prefetch: bool,
 }
 
 /// Where a node's own triangles (those of its leaf children) and its inner children lie, so
@@ -99,19 +96,13 @@ impl Ahead {
     }
 }
 
-/// Above this many bytes of nodes and triangles, a parent prefetches its children's children
-/// and triangles ([`Ahead`]). Below, they mostly stay in the caches and the prefetches only
-/// cost instructions. On the 2-core CI machine (bumpy spheres, random rays, closest-hit /
-/// any-hit rates with it against without): 131 k triangles (6 MiB) 3 % / 11 % slower,
-/// 262 k (12.6 MiB) 15 % faster / 3 % slower, 524 k (25 MiB) 17 % / 6 % faster, 1 M (50 MiB)
-/// 43 % / 42 % faster.
-const LOOKAHEAD_BYTES: usize = 12 << 20;
-
-/// Below this many bytes of nodes and triangles, nothing is prefetched: it all stays in the
-/// caches. On the CI machine (as for [`LOOKAHEAD_BYTES`], without `ahead`): 4 k triangles
-/// (0.2 MiB) 11 % / 12 % slower with prefetching, 16 k (0.8 MiB) 5 % / 9 % slower, 65 k
-/// (3.1 MiB) 5 % / 11 % faster.
-const PREFETCH_BYTES: usize = 2 << 20;
+/// Below this many bytes of nodes and triangles nothing is prefetched: they mostly stay in the
+/// caches, and prefetching only costs instructions. On the 2-core CI machine (bumpy spheres,
+/// random rays, closest-hit / any-hit rates with prefetching against without, one process
+/// alternating): 4 k triangles (0.2 MiB) 2 % / 6 % slower, 16 k (0.8 MiB) 5 % faster / 3 %
+/// slower, 32 k (1.5 MiB) 11 % / 6 % faster, 65 k (3.1 MiB) 27 % / 14 %, 131 k (6 MiB)
+/// 65 % / 69 %, 1 M (50 MiB) 55 % / 62 %.
+const PREFETCH_BYTES: usize = 1 << 20;
 
 /// A triangle as the traversal reads it: its coordinate rows for [`EdgeTest::intersect`] and
 /// its index in the input, in one 40-byte record.
@@ -137,12 +128,16 @@ impl Bvh {
 
     /// Builds over raw triangles (index = position in `tris`).
     pub fn from_positions(tris: Vec<[Vec3; 3]>) -> Self {
+        Self::from_positions_prefetching(tris, None)
+    }
+
+    /// [`Self::from_positions`], prefetching or not as `prefetch` says (by size when `None`).
+    fn from_positions_prefetching(tris: Vec<[Vec3; 3]>, prefetch: Option<bool>) -> Self {
         if tris.is_empty() {
             return Self {
                 bvh: None,
                 leaves: Vec::new(),
                 ahead: Vec::new(),
-                prefetch: false,
             };
         }
         let prims = obvhs_triangles(&tris);
@@ -157,7 +152,7 @@ impl Bvh {
             })
             .collect();
         let bytes = bvh.nodes.len() * size_of::<CwBvhNode>() + leaves.len() * size_of::<LeafTriangle>();
-        let ahead = if bytes > LOOKAHEAD_BYTES {
+        let ahead = if prefetch.unwrap_or(bytes > PREFETCH_BYTES) {
             bvh.nodes.iter().map(Ahead::new).collect()
         } else {
             Vec::new()
@@ -166,7 +161,6 @@ impl Bvh {
             bvh: Some(bvh),
             leaves,
             ahead,
-            prefetch: bytes > PREFETCH_BYTES,
         }
     }
 
@@ -212,22 +206,15 @@ impl Bvh {
         let edges = EdgeTest::new(&TriangleRay::new(o, d));
         let mut best: Option<(f32, f32, f32, u32)> = None;
         let mut t_best = tmax;
-        traverse::<_, AVX2>(
-            bvh,
-            &self.leaves,
-            &self.ahead,
-            self.prefetch,
-            NodeRay::new(o, d, tmax),
-            |k, cull| {
-                let tri = &self.leaves[k];
-                if let Some(h) = edges.intersect(tri.floats(), 0.0, t_best) {
-                    t_best = h.0;
-                    *cull = cull_beyond(t_best);
-                    best = Some((h.0, h.1, h.2, tri.index));
-                }
-                false
-            },
-        );
+        traverse::<_, AVX2>(bvh, &self.leaves, &self.ahead, NodeRay::new(o, d, tmax), |k, cull| {
+            let tri = &self.leaves[k];
+            if let Some(h) = edges.intersect(tri.floats(), 0.0, t_best) {
+                t_best = h.0;
+                *cull = cull_beyond(t_best);
+                best = Some((h.0, h.1, h.2, tri.index));
+            }
+            false
+        });
         best.map(|(t, b1, b2, tri)| Hit { t, tri, b1, b2 })
     }
 
@@ -237,18 +224,11 @@ impl Bvh {
         let edges = EdgeTest::new(&TriangleRay::new(o, d));
         let mut blocked = false;
         // Stop at the first triangle that blocks: no closest-hit bookkeeping.
-        traverse::<_, AVX2>(
-            bvh,
-            &self.leaves,
-            &self.ahead,
-            self.prefetch,
-            NodeRay::new(o, d, tmax),
-            |k, _| {
-                let tri = &self.leaves[k];
-                blocked = edges.intersect(tri.floats(), 0.0, tmax).is_some();
-                blocked
-            },
-        );
+        traverse::<_, AVX2>(bvh, &self.leaves, &self.ahead, NodeRay::new(o, d, tmax), |k, _| {
+            let tri = &self.leaves[k];
+            blocked = edges.intersect(tri.floats(), 0.0, tmax).is_some();
+            blocked
+        });
         blocked
     }
 }
@@ -495,7 +475,6 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
     bvh: &CwBvh,
     prims: &[LeafTriangle],
     ahead: &[Ahead],
-    prefetch: bool,
     ray: NodeRay,
     mut visit: F,
 ) {
@@ -529,14 +508,13 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
             } else {
                 ray.hitmask(node, hi)
             };
-            if prefetch {
+            if !ahead.is_empty() {
                 // Prefetch the child nodes the ray enters, nearest first, so that their cache
                 // misses overlap instead of being paid one after another as the traversal
-                // reaches them. With `ahead` (large meshes), also what the entered children point
-                // to: their triangles (so a node's triangles are on their way before it is even
-                // tested), the side-table entries they will read, and the nearest one's children
-                // (everyone's children costs more in memory traffic than it saves in waiting:
-                // 10 % slower on the 1 M-triangle sphere). Without, this node's entered leaves.
+                // reaches them, and what they point to: their triangles (so a node's triangles
+                // are on their way before it is even tested), the side-table entries they will
+                // read, and the nearest one's children (everyone's children costs more in memory
+                // traffic than it saves in waiting: 10 % slower on the 1 M-triangle sphere).
                 let mut inner = hitmask >> 24;
                 let mut nearest = true;
                 while inner != 0 {
@@ -546,29 +524,20 @@ fn traverse<F: FnMut(usize, &mut f32) -> bool, const AVX2: bool>(
                     let child =
                         (node.child_base_idx + (node.imask as u32 & !(0xffffffffu32 << slot)).count_ones()) as usize;
                     prefetch_one(bvh.nodes.as_ptr().wrapping_add(child));
-                    if let Some(a) = ahead.get(child) {
-                        // A node's triangles (at most 24 of 40 bytes) span at most 16 lines.
-                        let (first, count) = a.triangles();
-                        if count > 0 {
-                            prefetch_lines::<16, _>(prims.as_ptr().wrapping_add(first));
-                        }
-                        let (first, count) = a.children();
-                        // Its children (at most 8 of 80 bytes) span at most 11.
-                        if nearest && count > 0 {
-                            prefetch_lines::<11, _>(bvh.nodes.as_ptr().wrapping_add(first));
-                        }
-                        // The entries the child will read here for its own children.
-                        prefetch_one(ahead.as_ptr().wrapping_add(first).cast::<[Ahead; 8]>());
+                    let a = ahead[child];
+                    // A node's triangles (at most 24 of 40 bytes) span at most 16 lines.
+                    let (first, count) = a.triangles();
+                    if count > 0 {
+                        prefetch_lines::<16, _>(prims.as_ptr().wrapping_add(first));
                     }
+                    // Its children (at most 8 of 80 bytes) span at most 11.
+                    let (first, count) = a.children();
+                    if nearest && count > 0 {
+                        prefetch_lines::<11, _>(bvh.nodes.as_ptr().wrapping_add(first));
+                    }
+                    // The entries the child will read here for its own children.
+                    prefetch_one(ahead.as_ptr().wrapping_add(first).cast::<[Ahead; 8]>());
                     nearest = false;
-                }
-                if ahead.is_empty() {
-                    let mut leaves = hitmask & 0x00ffffff;
-                    while leaves != 0 {
-                        let first = (node.primitive_base_idx + leaves.trailing_zeros()) as usize;
-                        leaves &= leaves - 1;
-                        prefetch_one(prims.as_ptr().wrapping_add(first));
-                    }
                 }
             }
             current_group = UVec2::new(node.child_base_idx, (hitmask & 0xff000000) | (node.imask as u32));
@@ -621,12 +590,20 @@ mod tests {
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }
 
+    /// The BVH over `tris` as built, and with prefetching forced the other way (the test scenes
+    /// are small enough not to prefetch).
+    fn both_ways(tris: &[[Vec3; 3]]) -> [Bvh; 2] {
+        let bvh = Bvh::from_positions(tris.to_vec());
+        let other = Bvh::from_positions_prefetching(tris.to_vec(), Some(bvh.ahead.is_empty()));
+        [bvh, other]
+    }
+
     /// The BVH's hit is a closest one of brute force (the same t; on a tie, as where a ray meets
     /// a shared vertex, any of the triangles at that t), and its t and barycentrics are exactly
     /// what `intersect_triangle` reports for that triangle.
-    fn assert_agrees(bvh: &Bvh, tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> bool {
+    fn assert_agrees(bvhs: &[Bvh], tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> bool {
         let brute = brute_force(tris, o, d, tmax);
-        for (hit, blocked) in queries(bvh, o, d, tmax) {
+        for (hit, blocked) in bvhs.iter().flat_map(|bvh| queries(bvh, o, d, tmax)) {
             let context = || format!("ray {o} → {d}, tmax {tmax}: bvh {hit:?}, brute force {brute:?}");
             assert_eq!(hit.map(|h| h.t), brute.map(|b| b.0), "{}", context());
             if let Some(h) = hit {
@@ -656,7 +633,7 @@ mod tests {
                 [c + rnd() - h, c + rnd() - h, c + rnd() - h]
             })
             .collect();
-        let bvh = Bvh::from_positions(tris.clone());
+        let bvhs = both_ways(&tris);
         let mut hits = 0;
         for _ in 0..2000 {
             let o = rnd() * 12.0 - Vec3::splat(scale);
@@ -666,7 +643,7 @@ mod tests {
             } else {
                 5.0 * scale
             };
-            hits += assert_agrees(&bvh, &tris, o, d, tmax) as u32;
+            hits += assert_agrees(&bvhs, &tris, o, d, tmax) as u32;
         }
         assert!(hits > 200, "only {hits} hits at scale {scale}");
     }
@@ -698,7 +675,7 @@ mod tests {
                     tris.push([a, c, d]);
                 }
             }
-            let bvh = Bvh::from_positions(tris.clone());
+            let bvhs = both_ways(&tris);
             let mut s = Sampler::new(3, 0, 0);
             let mut crossings = 0;
             for k in 0..3000 {
@@ -713,7 +690,7 @@ mod tests {
                 };
                 let o = (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * 6.0 * scale + Vec3::splat(offset);
                 let d = (target - o).normalize();
-                let hit = assert_agrees(&bvh, &tris, o, d, f32::INFINITY);
+                let hit = assert_agrees(&bvhs, &tris, o, d, f32::INFINITY);
                 // Where the ray crosses the surface (every triangle around the vertex or edge
                 // faces the same way along it, not a silhouette it only grazes), it must hit.
                 let facing: Vec<f32> = tris
