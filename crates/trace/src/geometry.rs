@@ -1,5 +1,5 @@
 //! Ray–triangle intersection and robust ray offsetting.
-use glam::Vec3;
+use glam::{Vec3, Vec4, Vec4Swizzles};
 
 /// Watertight ray–triangle intersection (Woop, Benthin & Wald, JCGT 2013): a ray through a
 /// shared edge or vertex of a closed mesh hits at least one of the triangles, so rays cannot
@@ -14,10 +14,10 @@ pub fn intersect_triangle(o: Vec3, d: Vec3, p: &[Vec3; 3], tmin: f32, tmax: f32)
 /// computed once and reused for every triangle the traversal visits.
 #[derive(Clone, Copy, Debug)]
 pub struct TriangleRay {
-    o: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
+    /// The origin's coordinates in permuted order: `o[kx]`, `o[ky]`, `o[kz]`.
+    o: [f32; 3],
+    /// Where the permuted x, y and z rows start in [`TriangleRows`]: `3·kx`, `3·ky`, `3·kz`.
+    rows: [usize; 3],
     sx: f32,
     sy: f32,
     sz: f32,
@@ -36,15 +36,14 @@ impl TriangleRay {
         } else {
             2
         };
+        let (o, d) = (o.to_array(), d.to_array());
         let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
         Self {
-            o,
-            kx,
-            ky,
-            kz,
+            o: [o[kx], o[ky], o[kz]],
+            rows: [3 * kx, 3 * ky, 3 * kz],
             sx: d[kx] / d[kz],
             sy: d[ky] / d[kz],
             sz: 1.0 / d[kz],
@@ -53,22 +52,50 @@ impl TriangleRay {
 
     #[inline]
     pub fn intersect(&self, p: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
-        let Self {
-            o,
-            kx,
-            ky,
-            kz,
-            sx,
-            sy,
+        self.intersect_rows(&vertices_to_rows(p), tmin, tmax)
+    }
+
+    /// [`Self::intersect`] on a triangle stored by rows.
+    #[inline]
+    pub fn intersect_rows(&self, r: &TriangleRows, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+        let Self { o, rows, sx, sy, sz } = *self;
+        // SAFETY: `rows` holds 0, 3 and 6, so each row is inside the nine floats.
+        let row = |k: usize| unsafe { r.as_ptr().add(rows[k]).cast::<[f32; 3]>().read() };
+        let (px, py, pz) = (row(0), row(1), row(2));
+        // The vertices a = p[0] − o, b = p[1] − o, c = p[2] − o in permuted coordinates.
+        let (a_kx, a_ky, a_kz) = (px[0] - o[0], py[0] - o[1], pz[0] - o[2]);
+        let (b_kx, b_ky, b_kz) = (px[1] - o[0], py[1] - o[1], pz[1] - o[2]);
+        let (c_kx, c_ky, c_kz) = (px[2] - o[0], py[2] - o[1], pz[2] - o[2]);
+        let (ax, ay) = (a_kx - sx * a_kz, a_ky - sy * a_kz);
+        let (bx, by) = (b_kx - sx * b_kz, b_ky - sy * b_kz);
+        let (cx, cy) = (c_kx - sx * c_kz, c_ky - sy * c_kz);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        Self::finish(
             sz,
-        } = *self;
-        let (a, b, c) = (p[0] - o, p[1] - o, p[2] - o);
-        let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
-        let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
-        let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
+            [ax, bx, cx],
+            [ay, by, cy],
+            [a_kz, b_kz, c_kz],
+            [u, v, w],
+            tmin,
+            tmax,
+        )
+    }
+
+    /// The rest of [`Self::intersect_rows`] from the sheared vertices `x`, `y` (a, b, c), their
+    /// unsheared permuted z, and the edge functions `e` = (u, v, w): shared with [`EdgeTest`],
+    /// so that both give the same hits bit for bit.
+    #[inline(always)]
+    fn finish(
+        sz: f32,
+        [ax, bx, cx]: [f32; 3],
+        [ay, by, cy]: [f32; 3],
+        [a_kz, b_kz, c_kz]: [f32; 3],
+        [mut u, mut v, mut w]: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(f32, f32, f32)> {
         // Exactly on an edge in f32: decide in f64 so neighbouring triangles agree.
         if u == 0.0 || v == 0.0 || w == 0.0 {
             let e = |px: f32, py: f32, qx: f32, qy: f32| (px as f64 * qy as f64 - py as f64 * qx as f64) as f32;
@@ -83,7 +110,7 @@ impl TriangleRay {
         if det == 0.0 || !det.is_finite() {
             return None;
         }
-        let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+        let (az, bz, cz) = (sz * a_kz, sz * b_kz, sz * c_kz);
         let inv = 1.0 / det;
         let t = (u * az + v * bz + w * cz) * inv;
         if !(t > tmin && t < tmax) {
@@ -101,6 +128,72 @@ impl TriangleRay {
         let max_e = u.abs().max(v.abs()).max(w.abs());
         let delta_t = 3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv.abs();
         (t > delta_t).then_some((t, v * inv, w * inv))
+    }
+}
+
+/// A triangle stored by coordinate rows, `[x0, x1, x2, y0, y1, y2, z0, z1, z2]`, so that one
+/// 4-wide load fetches one coordinate of all three vertices (the fourth lane is ignored).
+pub type TriangleRows = [f32; 9];
+
+/// The rows of a triangle (see [`TriangleRows`]).
+#[inline(always)]
+pub fn vertices_to_rows(p: &[Vec3; 3]) -> TriangleRows {
+    [p[0].x, p[1].x, p[2].x, p[0].y, p[1].y, p[2].y, p[0].z, p[1].z, p[2].z]
+}
+
+/// [`TriangleRay::intersect_rows`] with its first half four lanes wide: the three vertices' sheared
+/// coordinates and the three edge functions `(u, v, w)` come out of the same IEEE operations in
+/// the same order as there, one vertex or edge per lane, and most triangles a ray misses are
+/// rejected right there (a strict sign disagreement with no zero, which `intersect_rows` rejects
+/// too). The rest goes through the same scalar code as `intersect_rows`, so the hits are its
+/// hits, bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct EdgeTest {
+    /// Offsets (in floats) of the permuted x, y and z rows.
+    offsets: [usize; 3],
+    o: [Vec4; 3],
+    sx: Vec4,
+    sy: Vec4,
+    sz: f32,
+}
+
+impl EdgeTest {
+    #[inline]
+    pub fn new(ray: &TriangleRay) -> Self {
+        let o = ray.o;
+        Self {
+            offsets: ray.rows,
+            o: [Vec4::splat(o[0]), Vec4::splat(o[1]), Vec4::splat(o[2])],
+            sx: Vec4::splat(ray.sx),
+            sy: Vec4::splat(ray.sy),
+            sz: ray.sz,
+        }
+    }
+
+    /// The hit of the triangle whose rows are the first nine floats of `rows`, exactly as
+    /// [`TriangleRay::intersect_rows`] gives it. The tenth float only pads the last 4-wide load.
+    #[inline(always)]
+    pub fn intersect(&self, rows: &[f32; 10], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+        let rows = rows.as_ptr();
+        // SAFETY: offsets are 0, 3 or 6, so each load reads floats inside the ten.
+        let load = |k: usize| Vec4::from_array(unsafe { rows.add(k).cast::<[f32; 4]>().read_unaligned() });
+        // Lanes 0, 1, 2 are vertices a, b, c (p[0], p[1], p[2]) as seen from the origin.
+        let x = load(self.offsets[0]) - self.o[0];
+        let y = load(self.offsets[1]) - self.o[1];
+        let z = load(self.offsets[2]) - self.o[2];
+        // (ax, bx, cx) and (ay, by, cy) of `intersect_rows`: p[kx] − sx·p[kz], p[ky] − sy·p[kz].
+        let xs = x - self.sx * z;
+        let ys = y - self.sy * z;
+        // (u, v, w) = (cx·by − cy·bx, ax·cy − ay·cx, bx·ay − by·ax).
+        let e = xs.zxyw() * ys.yzxw() - ys.zxyw() * xs.yzxw();
+        let neg = e.cmplt(Vec4::ZERO).bitmask() & 7;
+        let pos = e.cmpgt(Vec4::ZERO).bitmask() & 7;
+        let zero = e.cmpeq(Vec4::ZERO).bitmask() & 7;
+        if zero == 0 && neg != 0 && pos != 0 {
+            return None;
+        }
+        let lanes = |v: Vec4| [v.x, v.y, v.z];
+        TriangleRay::finish(self.sz, lanes(xs), lanes(ys), lanes(z), lanes(e), tmin, tmax)
     }
 }
 
@@ -206,6 +299,54 @@ mod tests {
                 .count();
             assert!(hits >= 1, "ray {k} towards {target} slipped through");
         }
+    }
+
+    /// `EdgeTest` (the BVH's fast path) gives exactly `intersect`'s hits, bit for bit: random
+    /// triangles (some degenerate) at several scales and offsets, and rays through their
+    /// vertices, their edges, and points inside and outside them.
+    #[test]
+    fn edge_test_gives_intersects_hits() {
+        let mut s = beamlight_scene::rng::Sampler::new(7, 0, 0);
+        let (mut hits, mut misses) = (0, 0);
+        for (scale, offset) in [(1.0f32, 0.0f32), (1e-4, 0.0), (1e4, 0.0), (1.0, 1e3)] {
+            let mut rnd = || Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5;
+            for k in 0..20000 {
+                let mut p = [rnd(), rnd(), rnd()].map(|v| v * scale + Vec3::splat(offset));
+                match k % 10 {
+                    0 => p[2] = p[1],                       // two vertices equal
+                    1 => p[2] = p[0] + (p[1] - p[0]) * 0.5, // collinear
+                    _ => {}
+                }
+                let (b1, b2) = match k % 4 {
+                    0 => ([0.0, 1.0, 0.0][k % 3], [0.0, 0.0, 1.0][k % 3]), // a vertex
+                    1 => {
+                        let t = rnd().x + 0.5;
+                        [(t, 0.0), (0.0, t), (t, 1.0 - t)][k % 3] // an edge
+                    }
+                    _ => (rnd().x * 1.4 + 0.5, rnd().y * 1.4 + 0.5), // inside or outside
+                };
+                let target = p[0] * (1.0 - b1 - b2) + p[1] * b1 + p[2] * b2;
+                let o = target + rnd().normalize() * scale * (0.1 + rnd().x + 0.5);
+                let d = (target - o).normalize();
+                let ray = TriangleRay::new(o, d);
+                let rows = vertices_to_rows(&p);
+                let padded: [f32; 10] = std::array::from_fn(|i| rows.get(i).copied().unwrap_or(f32::NAN));
+                let tmax = [f32::INFINITY, scale][k % 2];
+                let exact = ray.intersect(&p, 0.0, tmax);
+                let bits = |h: Option<(f32, f32, f32)>| h.map(|(t, b1, b2)| [t, b1, b2].map(f32::to_bits));
+                assert_eq!(
+                    bits(EdgeTest::new(&ray).intersect(&padded, 0.0, tmax)),
+                    bits(exact),
+                    "{p:?}, ray {o} → {d}, tmax {tmax}"
+                );
+                if exact.is_some() {
+                    hits += 1;
+                } else {
+                    misses += 1;
+                }
+            }
+        }
+        assert!(hits > 20000 && misses > 10000, "{hits} hits, {misses} misses");
     }
 
     #[test]
