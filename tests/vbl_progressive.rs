@@ -40,36 +40,17 @@ fn options(method: Method, w: u32, h: u32, passes: u64, paths: u32, seed: u32) -
 fn vbl_components_converge_to_the_path_tracer() {
     let (w, h) = (4u32, 4u32);
     let ts = TraceScene::new(fog_box(w, h, false));
-    let reference = pt_components_with_errors(&ts, 16384, 11);
     let mut opts = options(Method::Vbl, w, h, 384, 200, 12);
     opts.many_lights.light_samples = None;
-    let run = render_with_errors(&ts, &opts, 16);
-    let result = &run.result;
-    assert_eq!(result.film.rejected, 0);
-    assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
-    eprintln!("vbl: {} passes in {:?}", result.passes, result.elapsed);
-    let components = [
-        Component::Direct,
-        Component::Lss,
-        Component::Lsm,
-        Component::Lms,
-        Component::Lmm,
-    ];
-    assert_components_within_errors(
-        "vbl",
-        (&run.components, &run.component_errors),
-        (&reference.0, &reference.1),
-        &components,
-        4.0,
-    );
+    assert_components_converge(&ts, &opts, 16384);
 }
 
-/// The same in a sharp medium (g = 0.98 ≥ `components::SHARP_PHASE_G`): its camera segments
-/// connect to no virtual light, and their `Lms` and `Lmm` come from the walks (issue 15 item
-/// 3), each walk record credited to the class of the path's first two vertices. Fails if a
-/// walk record is credited to the wrong component, if the segments' own gathers still ran
-/// (light counted twice), or if a class of walk vertex is missed (light lost); what it cannot
-/// see is a bias below about 4 standard errors (printed).
+/// The same in a sharp medium (g = 0.98 ≥ `components::SHARP_PHASE_G`), with the default
+/// light selection: its camera segments connect to no virtual light, and their `Lms` and `Lmm`
+/// come from the walks (issue 15 item 3), each walk record credited to the class of the path's
+/// first two vertices. Fails if a walk record is credited to the wrong component, if the
+/// segments' own gathers still ran (light counted twice), or if a class of walk vertex is
+/// missed (light lost); what it cannot see is a bias below about 4 standard errors (printed).
 #[test]
 fn vbl_components_converge_to_the_path_tracer_in_a_sharp_medium() {
     let (w, h) = (4u32, 4u32);
@@ -77,13 +58,19 @@ fn vbl_components_converge_to_the_path_tracer_in_a_sharp_medium() {
     scene.media[0].g = 0.98;
     assert!(beamlight_trace::components::is_sharp(scene.media[0].g));
     let ts = TraceScene::new(scene);
-    let reference = pt_components_with_errors(&ts, 65536, 11);
-    let opts = options(Method::Vbl, w, h, 4096, 64, 12);
-    let run = render_with_errors(&ts, &opts, 16);
+    assert_components_converge(&ts, &options(Method::Vbl, w, h, 4096, 64, 12), 65536);
+}
+
+/// A render by `opts` against `pt_spp` samples per pixel of the path tracer, per component
+/// (direct, Lss, Lsm, Lms, Lmm) within 4 standard errors of both (batch means over 16 batches);
+/// nothing rejected or discarded.
+fn assert_components_converge(ts: &TraceScene, opts: &RenderOptions, pt_spp: u32) {
+    let reference = pt_components_with_errors(ts, pt_spp, 11);
+    let run = render_with_errors(ts, opts, 16);
     let result = &run.result;
     assert_eq!(result.film.rejected, 0);
     assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
-    eprintln!("vbl: {} passes in {:?}", result.passes, result.elapsed);
+    eprintln!("{}: {} passes in {:?}", opts.method.name(), result.passes, result.elapsed);
     let components = [
         Component::Direct,
         Component::Lss,
@@ -92,7 +79,7 @@ fn vbl_components_converge_to_the_path_tracer_in_a_sharp_medium() {
         Component::Lmm,
     ];
     assert_components_within_errors(
-        "vbl",
+        opts.method.name(),
         (&run.components, &run.component_errors),
         (&reference.0, &reference.1),
         &components,
