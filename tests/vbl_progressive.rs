@@ -70,7 +70,12 @@ fn assert_components_converge(ts: &TraceScene, opts: &RenderOptions, pt_spp: u32
     let result = &run.result;
     assert_eq!(result.film.rejected, 0);
     assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
-    eprintln!("{}: {} passes in {:?}", opts.method.name(), result.passes, result.elapsed);
+    eprintln!(
+        "{}: {} passes in {:?}",
+        opts.method.name(),
+        result.passes,
+        result.elapsed
+    );
     let components = [
         Component::Direct,
         Component::Lss,

@@ -729,7 +729,8 @@ fn print_stats(times: &[PassTimes]) {
             100.0 * gpu / wall.max(1e-9)
         );
     }
-    let records = |f: &dyn Fn(&many_lights::Records) -> u64| times.iter().map(|t| f(&t.records)).sum::<u64>() as f64 / n;
+    let records =
+        |f: &dyn Fn(&many_lights::Records) -> u64| times.iter().map(|t| f(&t.records)).sum::<u64>() as f64 / n;
     eprintln!(
         "  gather records per pass: {:.0} shading points, {:.0} media segments",
         records(&|r| r.shading_points),
@@ -737,9 +738,7 @@ fn print_stats(times: &[PassTimes]) {
     );
     let (walk_points, walk_segments) = (records(&|r| r.walk_points), records(&|r| r.walk_segments));
     if walk_points + walk_segments > 0.0 {
-        eprintln!(
-            "  walks through sharp media per pass: {walk_points:.0} points, {walk_segments:.0} segments"
-        );
+        eprintln!("  walks through sharp media per pass: {walk_points:.0} points, {walk_segments:.0} segments");
     }
     eprintln!(
         "  discarded estimates (NaN, ∞ or < 0): {}",

@@ -529,6 +529,9 @@ fn strongly_chromatic_grid_matches_cpu() {
     let mut scene = global_medium(true);
     scene.media[0].sigma_s = Rgb::new(8.0, 0.008, 3.0);
     scene.media[0].sigma_a = Rgb::new(1.0, 0.001, 0.0);
-    assert_eq!(beamlight_trace::media::extinction_groups(scene.media[0].sigma_t()).count(), 2);
+    assert_eq!(
+        beamlight_trace::media::extinction_groups(scene.media[0].sigma_t()).count(),
+        2
+    );
     compare("global strongly chromatic medium", &gpu, scene, 25, GRID_C);
 }

@@ -408,7 +408,10 @@ pub fn start_pass(
                 // A walk point's direct light; the camera's shading points' is part of
                 // `direct_light` below.
                 let mut sd = direct_stream(seed, pass, 0, i);
-                c[k] += admit(timed(&mut t[k], || direct::direct_at_surface(ts, sp, &mut sd)), &mut dp[k]);
+                c[k] += admit(
+                    timed(&mut t[k], || direct::direct_at_surface(ts, sp, &mut sd)),
+                    &mut dp[k],
+                );
             }
             if on_cpu {
                 let (lss, lsm) = if let Some(sel) = &selection {
@@ -465,7 +468,10 @@ pub fn start_pass(
                         ),
                     )
                 };
-                let (ks, km) = (credited(Component::Lss, credit) as usize, credited(Component::Lsm, credit) as usize);
+                let (ks, km) = (
+                    credited(Component::Lss, credit) as usize,
+                    credited(Component::Lsm, credit) as usize,
+                );
                 c[ks] += admit(lss / m, &mut dp[ks]);
                 c[km] += admit(lsm / m, &mut dp[km]);
             }
@@ -485,12 +491,14 @@ pub fn start_pass(
             let mut t = [0f64; N];
             let mut dp = [0u64; N];
             let credit = segment_credits[i];
-            if credit.is_some() {
-                // A walk segment's direct light (its second vertex on an emitter) is `Lmm`;
+            if let Some(k) = credit.map(|k| k as usize) {
+                // A walk segment's direct light (its second vertex on an emitter, so `Lmm`);
                 // the camera segments' is part of `direct_light` below.
-                let k = Component::Lmm as usize;
                 let mut sd = direct_stream(seed, pass, 1, i);
-                c[k] += admit(timed(&mut t[k], || direct::direct_in_medium(ts, seg, &mut sd)), &mut dp[k]);
+                c[k] += admit(
+                    timed(&mut t[k], || direct::direct_in_medium(ts, seg, &mut sd)),
+                    &mut dp[k],
+                );
             }
             if on_cpu && gathers_in_medium(ts.scene.media[seg.medium as usize].g) {
                 let (lms, lmm) = if let Some(sel) = &selection {
@@ -547,7 +555,10 @@ pub fn start_pass(
                         ),
                     )
                 };
-                let (ks, km) = (credited(Component::Lms, credit) as usize, credited(Component::Lmm, credit) as usize);
+                let (ks, km) = (
+                    credited(Component::Lms, credit) as usize,
+                    credited(Component::Lmm, credit) as usize,
+                );
                 c[ks] += admit(lms / m, &mut dp[ks]);
                 c[km] += admit(lmm / m, &mut dp[km]);
             }

@@ -68,9 +68,8 @@ fn rays() -> Vec<(Vec3, Vec3)> {
         .collect()
 }
 
-#[divan::bench(sample_count = 10)]
-fn closest_hit_rays(b: Bencher) {
-    let bvh = &big_scene().1;
+/// Closest-hit rays of [`rays`] against `bvh`.
+fn bench_closest_hits(b: Bencher, bvh: &Bvh) {
     let rays = rays();
     b.counter(ItemsCount::new(RAYS)).bench(|| {
         rays.iter()
@@ -79,12 +78,21 @@ fn closest_hit_rays(b: Bencher) {
     });
 }
 
-#[divan::bench(sample_count = 10)]
-fn visibility_rays(b: Bencher) {
-    let bvh = &big_scene().1;
+/// Visibility (any-hit) rays of [`rays`] against `bvh`.
+fn bench_visibility(b: Bencher, bvh: &Bvh) {
     let rays = rays();
     b.counter(ItemsCount::new(RAYS))
         .bench(|| rays.iter().filter(|(o, d)| bvh.occluded(*o, *d, f32::INFINITY)).count());
+}
+
+#[divan::bench(sample_count = 10)]
+fn closest_hit_rays(b: Bencher) {
+    bench_closest_hits(b, &big_scene().1);
+}
+
+#[divan::bench(sample_count = 10)]
+fn visibility_rays(b: Bencher) {
+    bench_visibility(b, &big_scene().1);
 }
 
 /// The same bumpy sphere with 4096 triangles: the whole BVH fits in the caches, so these rates
@@ -96,21 +104,12 @@ fn small_scene() -> &'static Bvh {
 
 #[divan::bench(sample_count = 10)]
 fn closest_hit_rays_4k_triangles(b: Bencher) {
-    let bvh = small_scene();
-    let rays = rays();
-    b.counter(ItemsCount::new(RAYS)).bench(|| {
-        rays.iter()
-            .filter(|(o, d)| bvh.closest_hit(*o, *d, f32::INFINITY).is_some())
-            .count()
-    });
+    bench_closest_hits(b, small_scene());
 }
 
 #[divan::bench(sample_count = 10)]
 fn visibility_rays_4k_triangles(b: Bencher) {
-    let bvh = small_scene();
-    let rays = rays();
-    b.counter(ItemsCount::new(RAYS))
-        .bench(|| rays.iter().filter(|(o, d)| bvh.occluded(*o, *d, f32::INFINITY)).count());
+    bench_visibility(b, small_scene());
 }
 
 fn fog_box() -> &'static TraceScene {

@@ -13,7 +13,12 @@
 //! (its own transmittance is part of the estimate along it); for a shading point it includes the
 //! transmittance of every medium the ray crossed to reach it. Emission seen directly (also
 //! through specular chains) is added to `emitted`, per pixel.
-use crate::{TraceScene, components::Component, context::{MAX_CROSSINGS, SurfaceHit}, media};
+use crate::{
+    TraceScene,
+    components::Component,
+    context::{MAX_CROSSINGS, SurfaceHit},
+    media,
+};
 use beamlight_scene::{Rgb, bsdf::Bsdf, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, scene::MediumId};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
@@ -113,7 +118,10 @@ pub struct CameraPathSettings {
 
 impl Default for CameraPathSettings {
     fn default() -> Self {
-        Self { rr_depth: 8, walks: true }
+        Self {
+            rr_depth: 8,
+            walks: true,
+        }
     }
 }
 
@@ -129,6 +137,8 @@ pub fn trace_camera_paths(
     pass: u32,
 ) -> GatherSet {
     let cam = &ts.scene.camera;
+    // Only scenes with a sharp medium walk.
+    let walks = settings.walks && ts.scene.media.iter().any(|m| crate::components::is_sharp(m.g));
     // Rows in parallel, each into its own set; joined in row order, so the records' order
     // (which keys their random streams) is the same on any number of threads.
     let rows: Vec<GatherSet> = (0..height)
@@ -157,12 +167,12 @@ pub fn trace_camera_paths(
                     &mut s,
                     &mut row,
                 );
-                if settings.walks {
+                if walks {
                     // A stream of its own, so that walks leave the camera paths' streams as
                     // they are.
                     let mut sw = Sampler::new(seed ^ WALK_SALT, pass, pixel);
-                    let camera_segments = row.media_segments[first..].to_vec();
-                    walk_sharp_media(ts, settings, &camera_segments, &mut sw, &mut row);
+                    let walk = (&mut row.walk_segments, &mut row.walk_points);
+                    walk_sharp_media(ts, settings, &row.media_segments[first..], &mut sw, walk);
                 }
             }
             row
@@ -242,7 +252,8 @@ fn trace_one(
         };
         let wo = -d;
         if !bsdf.is_delta() {
-            set.shading_points.push(ShadingPoint::new(&sh, wo, pixel, throughput, medium));
+            set.shading_points
+                .push(ShadingPoint::new(&sh, wo, pixel, throughput, medium));
             return emitted;
         }
         // Mirror or glass: follow the specular chain.
@@ -285,7 +296,13 @@ const WALK_SALT: u32 = 0x6a09_e667;
 /// so a record's throughput is its parent's times the single-scattering albedo and the
 /// transmittance of the stretches before it; Russian roulette after `rr_depth` scatterings
 /// keeps walks finite and unbiased.
-fn walk_sharp_media(ts: &TraceScene, settings: &CameraPathSettings, from: &[MediaSegment], s: &mut Sampler, set: &mut GatherSet) {
+fn walk_sharp_media(
+    ts: &TraceScene,
+    settings: &CameraPathSettings,
+    from: &[MediaSegment],
+    s: &mut Sampler,
+    (walk_segments, walk_points): (&mut Vec<MediaSegment>, &mut Vec<(ShadingPoint, Component)>),
+) {
     let scene = &ts.scene;
     // (segment, scatterings before it), depth first.
     let mut todo: Vec<(MediaSegment, u32)> = from.iter().rev().map(|&seg| (seg, 0)).collect();
@@ -309,7 +326,9 @@ fn walk_sharp_media(ts: &TraceScene, settings: &CameraPathSettings, from: &[Medi
             }
             throughput /= q;
         }
-        if !(throughput.max_element() > 0.0) {
+        // Only an exact zero ends the walk here: a NaN goes on into the records, where the
+        // estimates' `admit` counts it.
+        if throughput == Rgb::ZERO {
             continue;
         }
         let wi = HenyeyGreenstein { g: m.g }.sample(-d, s.next_2d()).wi;
@@ -329,7 +348,7 @@ fn walk_sharp_media(ts: &TraceScene, settings: &CameraPathSettings, from: &[Medi
                         throughput: throughput.into(),
                         pixel: seg.pixel,
                     };
-                    set.walk_segments.push(stretch);
+                    walk_segments.push(stretch);
                     todo.push((stretch, depth));
                 }
                 throughput *= ts.medium_transmittance(medium, o, wi, length, s);
@@ -347,7 +366,7 @@ fn walk_sharp_media(ts: &TraceScene, settings: &CameraPathSettings, from: &[Medi
                 Some(bsdf) => {
                     if !bsdf.is_delta() {
                         let sp = ShadingPoint::new(&sh, -wi, seg.pixel, throughput, medium);
-                        set.walk_points.push((sp, at_surface));
+                        walk_points.push((sp, at_surface));
                     }
                     break;
                 }

@@ -102,7 +102,14 @@ pub fn direct_in_medium(ts: &TraceScene, seg: &MediaSegment, s: &mut Sampler) ->
 /// The emitter a ray from `o` (already off its surface, if any) in direction `wi` reaches
 /// through invisible medium boundaries: its radiance times the transmittance on the way, and
 /// the density with which light sampling from `p` would have drawn that point (solid angle).
-fn emitter_along(ts: &TraceScene, p: Vec3, mut o: Vec3, wi: Vec3, mut medium: Option<u32>, s: &mut Sampler) -> Option<(Rgb, f32)> {
+fn emitter_along(
+    ts: &TraceScene,
+    p: Vec3,
+    mut o: Vec3,
+    wi: Vec3,
+    mut medium: Option<u32>,
+    s: &mut Sampler,
+) -> Option<(Rgb, f32)> {
     let mut tr = Rgb::ONE;
     for _ in 0..MAX_CROSSINGS {
         let (h, hit) = ts.intersect(o, wi, f32::INFINITY)?;

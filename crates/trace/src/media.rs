@@ -499,10 +499,17 @@ mod tests {
             total as f64 / n as f64
         };
         let grey = steps(Rgb::splat(2000.0));
-        for thin in [Rgb::new(2000.0, 2000.0, 2.0), Rgb::new(2.0, 2000.0, 2000.0), Rgb::new(2000.0, 2000.0, 0.0)] {
+        for thin in [
+            Rgb::new(2000.0, 2000.0, 2.0),
+            Rgb::new(2.0, 2000.0, 2000.0),
+            Rgb::new(2000.0, 2000.0, 0.0),
+        ] {
             let chromatic = steps(thin);
             eprintln!("σs {thin}: {chromatic:.1} tentative collisions per ray, grey {grey:.1}");
-            assert!(chromatic <= 2.0 * grey, "σs {thin}: {chromatic} steps per ray against grey {grey}");
+            assert!(
+                chromatic <= 2.0 * grey,
+                "σs {thin}: {chromatic} steps per ray against grey {grey}"
+            );
         }
     }
 

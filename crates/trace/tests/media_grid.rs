@@ -95,7 +95,10 @@ fn check_medium(label: &str, grid: DensityGrid, sigma_scale: f32) {
         g: 0.0,
         density: Some(grid.clone()),
     };
-    assert_eq!(beamlight_trace::media::extinction_groups(sharp_chroma.sigma_t()).count(), 2);
+    assert_eq!(
+        beamlight_trace::media::extinction_groups(sharp_chroma.sigma_t()).count(),
+        2
+    );
     // Grey, purely scattering: delta tracking's first real collision has the free-flight law.
     let grey_sigma = 2.0 * sigma_scale;
     let grey = Medium {
@@ -172,7 +175,10 @@ fn check_medium(label: &str, grid: DensityGrid, sigma_scale: f32) {
     // extinction): a sample tracks one group of channels (`media::pick_group`), so each
     // channel's weighted histogram of first collisions must still be T_c(t_k) − T_c(t_{k+1})
     // per bin and T_c(tmax) for passing (purely scattering media).
-    for (k, sigma) in [Rgb::new(40.0, 0.04, 20.0), Rgb::new(40.0, 0.0, 20.0)].into_iter().enumerate() {
+    for (k, sigma) in [Rgb::new(40.0, 0.04, 20.0), Rgb::new(40.0, 0.0, 20.0)]
+        .into_iter()
+        .enumerate()
+    {
         let sigma = sigma * sigma_scale;
         let m = Medium {
             name: label.into(),
@@ -218,13 +224,17 @@ fn check_medium(label: &str, grid: DensityGrid, sigma_scale: f32) {
             }
         }
     }
-    zc.check(&format!("{label}: free flights, one channel 1000× thinner or without extinction"));
+    zc.check(&format!(
+        "{label}: free flights, one channel 1000× thinner or without extinction"
+    ));
     assert!(
         hit_density > RAYS / 2,
         "{label}: only {hit_density} rays meet the medium"
     );
     zt.check(&format!("{label}: ratio-tracking transmittance"));
-    zs.check(&format!("{label}: ratio-tracking transmittance, one channel 1000× thinner"));
+    zs.check(&format!(
+        "{label}: ratio-tracking transmittance, one channel 1000× thinner"
+    ));
     zd.check(&format!("{label}: delta-tracking free-flight distances"));
 }
 
@@ -251,4 +261,3 @@ fn vdb_grid_tracking_is_unbiased() {
     // The volume is ~3 × 0.7 × 1.2 units: denser coefficients so rays see real attenuation.
     check_medium("vdb", grid, 3.0);
 }
-
