@@ -5,7 +5,9 @@ mod runs;
 use anyhow::{Context, Result, bail};
 use beamlight_gpu::{Gpu, GpuBackend, gather::GatherKernel};
 use beamlight_render::{
-    Budget, Film, Method, RenderOptions, compare,
+    Budget, Film, Method, RenderOptions,
+    auto::AutoReport,
+    compare,
     components::{Component, SceneFeatures},
     many_lights::{self, ManyLightSettings, PassTimes, VirtualLights},
     output,
@@ -108,6 +110,8 @@ enum MethodArg {
     Vrl,
     VrlClamped,
     Pt,
+    /// Each component from `pt` and `vbl`, combined by their measured errors.
+    Auto,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -302,7 +306,15 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         MethodArg::Vrl => Method::Vrl,
         MethodArg::VrlClamped => Method::VrlClamped,
         MethodArg::Vbl => Method::Vbl,
+        MethodArg::Auto => Method::Auto,
     };
+    if method == Method::Auto
+        && (args.checkpoint.is_some() || args.resume.is_some() || args.passes.is_some_and(|r| r.start.is_some()))
+    {
+        bail!(
+            "--method auto cannot be checkpointed, resumed or split into pass ranges: its image is a weighted combination of two estimators, not a sum of passes"
+        );
+    }
     if let Some(c) = args.clamp_distance
         && !(c.is_finite() && c >= 0.0)
     {
@@ -412,8 +424,9 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
                 pdf_vertices: args.pdf_vertices,
                 ..Default::default()
             },
-            // The method decides between rays and beams.
+            // The method decides between rays and beams; `auto` picks the components.
             lights: Default::default(),
+            components: [true; Component::ALL.len()],
         },
         gpu,
     };
@@ -483,7 +496,9 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             && last_write.elapsed().as_secs_f64() >= every
             && write_error.is_none()
         {
-            write_error = outputs.write(p.film, p.components, &p.discarded, p.elapsed).err();
+            write_error = outputs
+                .write(p.film, p.components, &p.discarded, p.auto, p.elapsed)
+                .err();
             last_write = Instant::now();
         }
         if let Some(path) = &args.checkpoint
@@ -505,7 +520,13 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     if let Some(e) = write_error {
         return Err(e.context("writing an intermediate image or checkpoint"));
     }
-    outputs.write(&result.film, &result.components, &result.discarded(), result.elapsed)?;
+    outputs.write(
+        &result.film,
+        &result.components,
+        &result.discarded(),
+        result.auto.as_ref(),
+        result.elapsed,
+    )?;
     if let Some(path) = &accum_path {
         accumulators(&result.film, &result.components).write(path)?;
     }
@@ -524,6 +545,12 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     }
     if args.stats {
         print_stats(&result.pass_times);
+        if let Some(report) = &result.auto {
+            eprintln!("auto, per component (pt's samples serve every component):");
+            for line in report.lines() {
+                eprintln!("  {line}");
+            }
+        }
     }
     if let Some(path) = &args.stats_json {
         let json = stats_json(&ts, &opts, &backend, &result, startup, start.elapsed());
@@ -632,14 +659,11 @@ fn quiet_vulkan_loader() -> Option<PathBuf> {
 fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(Option<Arc<GpuBackend>>, String)> {
     let has_kernels = match method {
         Method::Pt => false,
-        Method::Vbl => many_lights::gpu_has_kernels(VirtualLights::Beams),
+        Method::Vbl | Method::Auto => many_lights::gpu_has_kernels(VirtualLights::Beams),
         Method::Vrl | Method::VrlClamped => many_lights::gpu_has_kernels(VirtualLights::Rays),
     };
-    let gathers = if method == Method::Vbl {
-        "VBL/VSL gathers"
-    } else {
-        "VRL/VPL gathers"
-    };
+    let beams = matches!(method, Method::Vbl | Method::Auto);
+    let gathers = if beams { "VBL/VSL gathers" } else { "VRL/VPL gathers" };
     let open = || GpuBackend::open(&ts.scene).map(Arc::new);
     Ok(match arg {
         BackendArg::Cpu => (None, "cpu".to_string()),
@@ -661,7 +685,16 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
             // integration over each sphere, mostly arithmetic) run 1.5-2.1x faster than the CPU
             // twins on both cores, the vrl ones (mostly BVH traversal, which diverges across
             // SIMD lanes) 0.4-0.65x as fast.
-            Some(a) if beamlight_gpu::device::is_cpu_adapter(a) && method != Method::Vbl => (
+            // `auto` spends most of its time path tracing on the CPU: opening a CPU adapter
+            // (about 2 s with lavapipe) costs more than its share of gathers gains.
+            Some(a) if beamlight_gpu::device::is_cpu_adapter(a) && method == Method::Auto => (
+                None,
+                format!(
+                    "cpu (the only Vulkan adapter, {}, is a CPU adapter: `auto` path traces most of the time, and opening it costs more than its gathers gain)",
+                    a.name
+                ),
+            ),
+            Some(a) if beamlight_gpu::device::is_cpu_adapter(a) && !beams => (
                 None,
                 format!(
                     "cpu (the only Vulkan adapter, {}, is a CPU adapter: the CPU estimators of this method are faster on the same cores)",
@@ -763,7 +796,7 @@ fn stats_json(
     let total = |f: &dyn Fn(&PassTimes) -> f64| times.iter().map(f).sum::<f64>() + 0.0;
     let needed = SceneFeatures::of(&ts.scene).needed();
     let kernels = many_lights::gpu_kernels(match opts.method {
-        Method::Vbl => VirtualLights::Beams,
+        Method::Vbl | Method::Auto => VirtualLights::Beams,
         _ => VirtualLights::Rays,
     });
     let gpu_component = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
@@ -801,6 +834,30 @@ fn stats_json(
         "cpu_estimates_seconds": total(&|t| t.cpu_estimates.as_secs_f64()),
         "gpu_wait_seconds": total(&|t| t.gpu_wait.as_secs_f64()),
         "components": components,
+        "auto": result.auto.as_ref().map(|r| {
+            let per_component: serde_json::Map<String, serde_json::Value> = Component::ALL
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| r.needed[*k])
+                .map(|(k, c)| {
+                    (
+                        c.name().to_string(),
+                        json!({
+                            "vbl_passes": r.vbl_passes[k],
+                            "vbl_seconds": r.vbl_component_seconds[k],
+                            "vbl_weight": r.vbl_weight[k],
+                            "vbl_only": r.vbl_only[k],
+                        }),
+                    )
+                })
+                .collect();
+            json!({
+                "pt_spp": r.pt_spp,
+                "pt_seconds": r.pt_seconds,
+                "vbl_seconds": r.vbl_seconds,
+                "components": per_component,
+            })
+        }),
     });
     serde_json::to_string_pretty(&value).expect("JSON of numbers and strings")
 }
@@ -814,11 +871,18 @@ struct Outputs<'a> {
 
 impl Outputs<'_> {
     /// Writes the EXR (beauty + component layers) and the preview, each atomically.
-    fn write(&self, film: &Film, components: &[Film], discarded: &[u64], elapsed: Duration) -> Result<()> {
+    fn write(
+        &self,
+        film: &Film,
+        components: &[Film],
+        discarded: &[u64],
+        auto: Option<&AutoReport>,
+        elapsed: Duration,
+    ) -> Result<()> {
         let args = self.args;
         let passes = film.samples;
         let image = film.image();
-        let metadata = [
+        let mut metadata = vec![
             ("beamlight.method", self.method.name().to_string()),
             ("beamlight.passes", passes.to_string()),
             ("beamlight.spp", passes.to_string()),
@@ -829,6 +893,9 @@ impl Outputs<'_> {
             ("beamlight.rejected_samples", film.rejected.to_string()),
             ("beamlight.discarded_estimates", discarded_summary(discarded)),
         ];
+        if let Some(report) = auto {
+            metadata.push(("beamlight.auto", report.lines().join("; ")));
+        }
         let layers: Vec<(Component, beamlight_render::Image)> = Component::ALL
             .iter()
             .zip(components)
@@ -1030,6 +1097,26 @@ fn info(path: &Path) -> Result<()> {
             names.join(", ")
         }
     );
+    if !needed.is_empty() {
+        let only = beamlight_render::auto::vbl_only(&ts);
+        let (solo, both): (Vec<Component>, Vec<Component>) = needed.iter().partition(|c| only[**c as usize]);
+        let list = |v: &[Component]| v.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ");
+        let mut plan = String::new();
+        if !both.is_empty() {
+            plan += &format!(
+                "{}: pt and vbl, weighted per 8x8 tile by their measured errors; vbl runs a component only while its passes lower the error faster per second than path tracing",
+                list(&both)
+            );
+        }
+        if !solo.is_empty() {
+            plan += &format!(
+                "{}{}: vbl alone (the path tracer cannot reach caustics of point, spot or directional lights through mirrors or glass)",
+                if plan.is_empty() { "" } else { "; " },
+                list(&solo)
+            );
+        }
+        outln!(out, "auto        {plan}");
+    }
     let cam_medium = ts
         .camera_medium
         .map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());

@@ -140,6 +140,34 @@ impl Film {
         })
     }
 
+    /// A film that reads as an estimate: its [`Film::image`] is `mean` and its
+    /// [`Film::variance_of_mean`] is `variance` (for `n` ≥ 2; with fewer there is no variance),
+    /// as if `n` samples had been added. For estimates that are not plain averages (the
+    /// combination of `--method auto`): its sums are not a render's and cannot be continued.
+    pub fn from_estimate(mean: &Image, variance: &Image, n: u64) -> Film {
+        let nf = n.max(1) as f64;
+        let (sum, sum_sq) = mean
+            .pixels
+            .iter()
+            .zip(&variance.pixels)
+            .map(|(m, v)| {
+                let m = [m[0] as f64, m[1] as f64, m[2] as f64];
+                let v = [v[0] as f64, v[1] as f64, v[2] as f64];
+                // variance_of_mean = (sum_sq/n − mean²)/(n − 1)
+                let s2 = |c: usize| nf * (m[c] * m[c] + v[c] * (nf - 1.0));
+                ([m[0] * nf, m[1] * nf, m[2] * nf], [s2(0), s2(1), s2(2)])
+            })
+            .unzip();
+        Film {
+            width: mean.width,
+            height: mean.height,
+            sum,
+            sum_sq,
+            samples: n,
+            rejected: 0,
+        }
+    }
+
     /// The current estimate: the plain average of the samples per pixel.
     pub fn image(&self) -> Image {
         let n = self.samples.max(1) as f64;

@@ -3,6 +3,7 @@
 //!
 //! Data flows one way: scene → tracing → estimators → accumulators ([`film`]) → image ([`output`]).
 pub mod accum;
+pub mod auto;
 pub mod compare;
 pub mod components;
 pub mod film;

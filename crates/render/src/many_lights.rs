@@ -75,6 +75,10 @@ pub struct ManyLightSettings {
     /// media segment looks up every photon beam whose tube it crosses, so beams cost more than
     /// photons and get fewer paths. Their radius follows eq. 11 with this count.
     pub beam_paths: u32,
+    /// The components a pass computes, by [`Component::ALL`] index (every one by default);
+    /// the others stay zero and cost nothing. `--method auto` leaves out those the path
+    /// tracer serves better ([`crate::auto`]).
+    pub components: [bool; N],
 }
 
 /// Lights a gather record draws per component by default (`--light-samples`).
@@ -101,6 +105,7 @@ impl Default for ManyLightSettings {
             direct_samples: DEFAULT_DIRECT_SAMPLES,
             caustic_paths: DEFAULT_CAUSTIC_PATHS,
             beam_paths: DEFAULT_BEAM_PATHS,
+            components: [true; N],
         }
     }
 }
@@ -201,6 +206,9 @@ pub fn admit(v: Rgb, discarded: &mut u64) -> Rgb {
     if v.is_finite() { v.max(Rgb::ZERO) } else { Rgb::ZERO }
 }
 
+/// The component each of [`gpu_kernels`]'s kernels computes, in its order.
+pub const KERNEL_COMPONENTS: [Component; 4] = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
+
 /// The GPU kernels of these settings' method, in (Lss, Lsm, Lms, Lmm) order.
 pub fn gpu_kernels(lights: VirtualLights) -> [GatherKernel; 4] {
     match lights {
@@ -230,6 +238,8 @@ pub struct PassInFlight {
     /// a camera record, each estimate in its own component; see [`credited`]).
     point_credits: Vec<Option<Component>>,
     segment_credits: Vec<Option<Component>>,
+    /// [`ManyLightSettings::components`].
+    computed: [bool; N],
     times: PassTimes,
 }
 
@@ -242,15 +252,17 @@ impl PassInFlight {
             let g = pending.finish(&gpu.gpu)?;
             self.times.gpu_wait = clock.elapsed();
             self.times.kernels = g.kernel_seconds;
-            let components = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
-            for (kernel, component) in self.kernels.into_iter().zip(components) {
+            for (kernel, component) in self.kernels.into_iter().zip(KERNEL_COMPONENTS) {
                 let (pixels, credits) = if kernel.on_surfaces() {
                     (&self.point_pixels, &self.point_credits)
                 } else {
                     (&self.segment_pixels, &self.segment_credits)
                 };
                 for ((&pixel, &credit), v) in pixels.iter().zip(credits).zip(&g.results[kernel as usize]) {
-                    self.out[credited(component, credit) as usize][pixel as usize] += *v;
+                    let k = credited(component, credit) as usize;
+                    if self.computed[k] {
+                        self.out[k][pixel as usize] += *v;
+                    }
                 }
                 self.times.discarded[component as usize] += g.discarded[kernel as usize];
             }
@@ -317,9 +329,24 @@ pub fn start_pass(
             Default::default()
         }
     };
+    let on = |c: Component| settings.components[c as usize];
     let (photon_lights, beam_lights) = (
-        caustic_set(settings.caustic_paths, 0x1656_67b1),
-        caustic_set(settings.beam_paths, 0x3c6e_f372),
+        caustic_set(
+            if on(Component::CausticSurface) {
+                settings.caustic_paths
+            } else {
+                0
+            },
+            0x1656_67b1,
+        ),
+        caustic_set(
+            if on(Component::CausticVolume) {
+                settings.beam_paths
+            } else {
+                0
+            },
+            0x3c6e_f372,
+        ),
     );
     let (m_photons, m_beams) = (photon_lights.paths.max(1) as f32, beam_lights.paths.max(1) as f32);
     let photon_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, settings.caustic_paths, pass);
@@ -364,7 +391,19 @@ pub fn start_pass(
                 vsl_tree: selection.as_ref().map_or(&[], |s| &s.vsls.nodes),
                 vbl_tree: selection.as_ref().map_or(&[], |s| &s.vbls.nodes),
             },
-            std::array::from_fn(|k| kernels.contains(&GatherKernel::ALL[k])),
+            std::array::from_fn(|k| {
+                let kernel = GatherKernel::ALL[k];
+                let Some(i) = kernels.iter().position(|&x| x == kernel) else {
+                    return false;
+                };
+                // Needed when its own component is computed, or one a walk record credits.
+                let credits = if kernel.on_surfaces() {
+                    &point_credits
+                } else {
+                    &segment_credits
+                };
+                on(KERNEL_COMPONENTS[i]) || credits.iter().any(|c| c.is_some_and(on))
+            }),
         )?),
         None => None,
     };
@@ -372,8 +411,12 @@ pub fn start_pass(
     // Direct light: the gather's camera sample and `direct_samples − 1` more of its own.
     let direct_samples = settings.direct_samples.max(1);
     let direct = &mut out[Component::Direct as usize];
-    let mut discarded = direct_light(ts, &gather, seed, pass, direct);
-    for k in 1..direct_samples {
+    let mut discarded = 0;
+    for k in 0..if on(Component::Direct) { direct_samples } else { 0 } {
+        if k == 0 {
+            discarded += direct_light(ts, &gather, seed, pass, direct);
+            continue;
+        }
         let seed_k = direct_seed(seed, k);
         let direct_only = CameraPathSettings {
             walks: false,
@@ -392,6 +435,7 @@ pub fn start_pass(
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x7f4a_7c15, pass, (i as u32).wrapping_mul(2) + kind);
     let pair = |kind: GatherKind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
     let on_cpu = pending.is_none();
+    let computed = settings.components;
 
     // Each gather point against every virtual light: the sum over a light set divided by its
     // path count M is the per-pass estimate.
@@ -404,7 +448,8 @@ pub fn start_pass(
             let mut t = [0f64; N];
             let mut dp = [0u64; N];
             let credit = point_credits[i];
-            if let Some(k) = credit.map(|k| k as usize) {
+            let want = |component: Component| on(credited(component, credit));
+            if let Some(k) = credit.map(|k| k as usize).filter(|&k| computed[k]) {
                 // A walk point's direct light; the camera's shading points' is part of
                 // `direct_light` below.
                 let mut sd = direct_stream(seed, pass, 0, i);
@@ -414,66 +459,44 @@ pub fn start_pass(
                 );
             }
             if on_cpu {
-                let (lss, lsm) = if let Some(sel) = &selection {
-                    let rx = Receiver::at_point(&ts.scene, sp);
-                    let (vsl, vbl_k) = (GatherKind::VplToSurface, GatherKind::VrlToSurface);
-                    (
-                        sel.timed_estimate(
-                            &mut t[Component::Lss as usize],
-                            &mut dp[Component::Lss as usize],
-                            &sel.vsls,
-                            &rx,
-                            vsl,
-                            i,
-                            |j, s| vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s),
-                        ),
-                        sel.timed_estimate(
-                            &mut t[Component::Lsm as usize],
-                            &mut dp[Component::Lsm as usize],
-                            &sel.vbls,
-                            &rx,
-                            vbl_k,
-                            i,
-                            |j, s| vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s),
-                        ),
-                    )
-                } else if beams_on {
-                    (
-                        timed_sum(
-                            &mut t[Component::Lss as usize],
-                            &mut dp[Component::Lss as usize],
-                            &lights.vpls,
-                            |j, v| vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VplToSurface, i, j)),
-                        ),
-                        timed_sum(
-                            &mut t[Component::Lsm as usize],
-                            &mut dp[Component::Lsm as usize],
-                            &lights.vrls,
-                            |j, v| vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(GatherKind::VrlToSurface, i, j)),
-                        ),
-                    )
-                } else {
-                    (
-                        timed_sum(
-                            &mut t[Component::Lss as usize],
-                            &mut dp[Component::Lss as usize],
-                            &lights.vpls,
-                            |j, v| vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VplToSurface, i, j)),
-                        ),
-                        timed_sum(
-                            &mut t[Component::Lsm as usize],
-                            &mut dp[Component::Lsm as usize],
-                            &lights.vrls,
-                            |j, v| vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(GatherKind::VrlToSurface, i, j)),
-                        ),
-                    )
-                };
-                let (ks, km) = (
-                    credited(Component::Lss, credit) as usize,
-                    credited(Component::Lsm, credit) as usize,
-                );
-                c[ks] += admit(lss / m, &mut dp[ks]);
-                c[km] += admit(lsm / m, &mut dp[km]);
+                let rx = selection.as_ref().map(|_| Receiver::at_point(&ts.scene, sp));
+                let (lss, lsm) = (Component::Lss as usize, Component::Lsm as usize);
+                if want(Component::Lss) {
+                    let kind = GatherKind::VplToSurface;
+                    let v = match (&selection, &rx) {
+                        (Some(sel), Some(rx)) => {
+                            sel.timed_estimate(&mut t[lss], &mut dp[lss], &sel.vsls, rx, kind, i, |j, s| {
+                                vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s)
+                            })
+                        }
+                        _ if beams_on => timed_sum(&mut t[lss], &mut dp[lss], &lights.vpls, |j, v| {
+                            vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(kind, i, j))
+                        }),
+                        _ => timed_sum(&mut t[lss], &mut dp[lss], &lights.vpls, |j, v| {
+                            vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(kind, i, j))
+                        }),
+                    };
+                    let k = credited(Component::Lss, credit) as usize;
+                    c[k] += admit(v / m, &mut dp[k]);
+                }
+                if want(Component::Lsm) {
+                    let kind = GatherKind::VrlToSurface;
+                    let v = match (&selection, &rx) {
+                        (Some(sel), Some(rx)) => {
+                            sel.timed_estimate(&mut t[lsm], &mut dp[lsm], &sel.vbls, rx, kind, i, |j, s| {
+                                vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s)
+                            })
+                        }
+                        _ if beams_on => timed_sum(&mut t[lsm], &mut dp[lsm], &lights.vrls, |j, v| {
+                            vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(kind, i, j))
+                        }),
+                        _ => timed_sum(&mut t[lsm], &mut dp[lsm], &lights.vrls, |j, v| {
+                            vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(kind, i, j))
+                        }),
+                    };
+                    let k = credited(Component::Lsm, credit) as usize;
+                    c[k] += admit(v / m, &mut dp[k]);
+                }
             }
             if !photons.is_empty() {
                 let k = credited(Component::CausticSurface, credit) as usize;
@@ -491,7 +514,8 @@ pub fn start_pass(
             let mut t = [0f64; N];
             let mut dp = [0u64; N];
             let credit = segment_credits[i];
-            if let Some(k) = credit.map(|k| k as usize) {
+            let want = |component: Component| on(credited(component, credit));
+            if let Some(k) = credit.map(|k| k as usize).filter(|&k| computed[k]) {
                 // A walk segment's direct light (its second vertex on an emitter, so `Lmm`);
                 // the camera segments' is part of `direct_light` below.
                 let mut sd = direct_stream(seed, pass, 1, i);
@@ -501,66 +525,44 @@ pub fn start_pass(
                 );
             }
             if on_cpu && gathers_in_medium(ts.scene.media[seg.medium as usize].g) {
-                let (lms, lmm) = if let Some(sel) = &selection {
-                    let rx = Receiver::along_segment(&ts.scene, seg);
-                    let (vsl, vbl_k) = (GatherKind::VplToMedia, GatherKind::VrlToMedia);
-                    (
-                        sel.timed_estimate(
-                            &mut t[Component::Lms as usize],
-                            &mut dp[Component::Lms as usize],
-                            &sel.vsls,
-                            &rx,
-                            vsl,
-                            i,
-                            |j, s| vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s),
-                        ),
-                        sel.timed_estimate(
-                            &mut t[Component::Lmm as usize],
-                            &mut dp[Component::Lmm as usize],
-                            &sel.vbls,
-                            &rx,
-                            vbl_k,
-                            i,
-                            |j, s| vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s),
-                        ),
-                    )
-                } else if beams_on {
-                    (
-                        timed_sum(
-                            &mut t[Component::Lms as usize],
-                            &mut dp[Component::Lms as usize],
-                            &lights.vpls,
-                            |j, v| vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VplToMedia, i, j)),
-                        ),
-                        timed_sum(
-                            &mut t[Component::Lmm as usize],
-                            &mut dp[Component::Lmm as usize],
-                            &lights.vrls,
-                            |j, v| vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(GatherKind::VrlToMedia, i, j)),
-                        ),
-                    )
-                } else {
-                    (
-                        timed_sum(
-                            &mut t[Component::Lms as usize],
-                            &mut dp[Component::Lms as usize],
-                            &lights.vpls,
-                            |j, v| vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VplToMedia, i, j)),
-                        ),
-                        timed_sum(
-                            &mut t[Component::Lmm as usize],
-                            &mut dp[Component::Lmm as usize],
-                            &lights.vrls,
-                            |j, v| vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(GatherKind::VrlToMedia, i, j)),
-                        ),
-                    )
-                };
-                let (ks, km) = (
-                    credited(Component::Lms, credit) as usize,
-                    credited(Component::Lmm, credit) as usize,
-                );
-                c[ks] += admit(lms / m, &mut dp[ks]);
-                c[km] += admit(lmm / m, &mut dp[km]);
+                let rx = selection.as_ref().map(|_| Receiver::along_segment(&ts.scene, seg));
+                let (lms, lmm) = (Component::Lms as usize, Component::Lmm as usize);
+                if want(Component::Lms) {
+                    let kind = GatherKind::VplToMedia;
+                    let v = match (&selection, &rx) {
+                        (Some(sel), Some(rx)) => {
+                            sel.timed_estimate(&mut t[lms], &mut dp[lms], &sel.vsls, rx, kind, i, |j, s| {
+                                vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s)
+                            })
+                        }
+                        _ if beams_on => timed_sum(&mut t[lms], &mut dp[lms], &lights.vpls, |j, v| {
+                            vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(kind, i, j))
+                        }),
+                        _ => timed_sum(&mut t[lms], &mut dp[lms], &lights.vpls, |j, v| {
+                            vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(kind, i, j))
+                        }),
+                    };
+                    let k = credited(Component::Lms, credit) as usize;
+                    c[k] += admit(v / m, &mut dp[k]);
+                }
+                if want(Component::Lmm) {
+                    let kind = GatherKind::VrlToMedia;
+                    let v = match (&selection, &rx) {
+                        (Some(sel), Some(rx)) => {
+                            sel.timed_estimate(&mut t[lmm], &mut dp[lmm], &sel.vbls, rx, kind, i, |j, s| {
+                                vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s)
+                            })
+                        }
+                        _ if beams_on => timed_sum(&mut t[lmm], &mut dp[lmm], &lights.vrls, |j, v| {
+                            vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(kind, i, j))
+                        }),
+                        _ => timed_sum(&mut t[lmm], &mut dp[lmm], &lights.vrls, |j, v| {
+                            vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(kind, i, j))
+                        }),
+                    };
+                    let k = credited(Component::Lmm, credit) as usize;
+                    c[k] += admit(v / m, &mut dp[k]);
+                }
             }
             if !beams.is_empty() {
                 let k = credited(Component::CausticVolume, credit) as usize;
@@ -589,6 +591,7 @@ pub fn start_pass(
         segment_pixels: segments.iter().map(|seg| seg.pixel).collect(),
         point_credits,
         segment_credits,
+        computed,
         times,
     })
 }

@@ -27,6 +27,9 @@ pub enum Method {
     VrlClamped,
     /// Progressive virtual beam lights + virtual spherical lights.
     Vbl,
+    /// Each component from `pt` and `vbl`, combined by their measured errors, with the time
+    /// going where it lowers the error most ([`crate::auto`]).
+    Auto,
 }
 
 impl Method {
@@ -36,6 +39,7 @@ impl Method {
             Method::Vrl => "vrl",
             Method::VrlClamped => "vrl-clamped",
             Method::Vbl => "vbl",
+            Method::Auto => "auto",
         }
     }
 }
@@ -77,6 +81,8 @@ pub struct RenderResult {
     pub elapsed: Duration,
     /// Where each many-light pass's time went (empty for `pt`).
     pub pass_times: Vec<PassTimes>,
+    /// `--method auto`: where each component's estimate came from.
+    pub auto: Option<crate::auto::AutoReport>,
 }
 
 impl RenderResult {
@@ -109,6 +115,8 @@ pub struct Progress<'a> {
     pub elapsed: Duration,
     /// Estimates discarded so far, per component ([`PassTimes::discarded`]).
     pub discarded: [u64; Component::ALL.len()],
+    /// `--method auto`: where each component's estimate came from so far.
+    pub auto: Option<&'a crate::auto::AutoReport>,
 }
 
 /// Renders until the budget is spent, calling `on_pass` after each pass; when it returns
@@ -134,7 +142,7 @@ pub fn render_from(
     let specular = crate::components::SceneFeatures::of(&ts.scene).specular_surfaces;
     let many_light_settings = ManyLightSettings {
         lights: match opts.method {
-            Method::Vbl => VirtualLights::Beams,
+            Method::Vbl | Method::Auto => VirtualLights::Beams,
             _ => VirtualLights::Rays,
         },
         clamp: match opts.method {
@@ -157,6 +165,12 @@ pub fn render_from(
         },
         ..opts.many_lights
     };
+    if opts.method == Method::Auto {
+        if resume.is_some() {
+            return Err("`--method auto` cannot continue a checkpoint: its estimate is not a sum of passes".into());
+        }
+        return crate::auto::render(ts, opts, &many_light_settings, on_pass);
+    }
     let (w, h) = (opts.width, opts.height);
     let mut film = Film::new(w, h);
     let mut buffer = vec![Rgb::ZERO; (w * h) as usize];
@@ -282,6 +296,7 @@ pub fn render_from(
             components: &components,
             elapsed: started.elapsed(),
             discarded: discarded_so_far,
+            auto: None,
         });
         if !go_on {
             // A pass still in flight is dropped unfinished.
@@ -294,6 +309,7 @@ pub fn render_from(
         passes,
         elapsed: started.elapsed(),
         pass_times,
+        auto: None,
     })
 }
 

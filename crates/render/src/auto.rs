@@ -1,0 +1,756 @@
+//! `--method auto`: each transport component from whichever estimator lowers its error fastest.
+//!
+//! The path tracer (`pt`) and progressive virtual beam lights (`vbl`) split every path into
+//! the same components ([`Component`]), and each component is its own integral, so the two
+//! estimates of a component can be combined. `auto` keeps both estimators' running sums apart,
+//! per component, and
+//! * **combines** them per component with one weight each, inversely proportional to each
+//!   estimator's estimated error in the image's relative error (`compare`'s relMSE): the
+//!   variance of its pixels' means (from the films' sums of squares) and, for `vbl`, a
+//!   squared-bias term, the part of the squared difference between the two image means that
+//!   their variances do not explain (the blur of `vbl`'s radius loses some light, issue 19).
+//!   One weight per component, not per pixel or tile: the weights are estimated from the same
+//!   samples they weigh, and `vbl`'s first passes are heavy-tailed (a few bright virtual
+//!   lights), so a tile whose passes missed them looks both darker and less noisy and would be
+//!   trusted more — measured, 8×8-pixel tiles after 2–5 passes left `Lsm` and `Lss` 5 % dark
+//!   in the glossy fog box. Pooled over the image, that correlation is negligible; and `vbl`
+//!   gets no weight before [`MIN_VBL_PASSES`] passes;
+//! * **schedules** the time: after measuring both (the first steps run each), every step goes
+//!   to a `pt` slice or to a `vbl` pass over the components whose own share of a pass lowers
+//!   the combined error faster per second than the same time given to `pt` would. The
+//!   reduction comes from the error model above with the measured costs: seconds per `pt`
+//!   sample and, per `vbl` component, its estimator's seconds per pass plus a share of the
+//!   pass's tracing.
+//!
+//! **Consistency.** Both estimators converge to the true component (the path tracer is
+//! unbiased; `vbl`'s radius shrinks by eq. 11), and the combination is a convex one of the two
+//! with weights in [0, 1], so it converges too, whatever the weights. A bias `vbl` still has is
+//! seen as a growing squared difference against the shrinking variances, and its weight falls.
+//!
+//! **Components the path tracer cannot reach** (caustics of a point, spot or directional light
+//! through mirrors or glass: a delta light seen through a delta surface) come from `vbl` alone:
+//! there the path tracer's zero would otherwise look exact.
+//!
+//! With a time budget the schedule follows measured costs, so it differs from run to run; with
+//! a pass budget (`--passes N`) it is fixed, N rounds of one `vbl` pass over every component and
+//! [`PT_SPP_PER_ROUND`] path-traced samples per pixel, so the same seed gives the same image.
+use crate::{
+    Film, Image,
+    components::SceneFeatures,
+    many_lights::{self, ManyLightSettings, PassTimes},
+    progressive::{Budget, Progress, RenderOptions, RenderResult, path_trace_pass},
+};
+use beamlight_scene::Rgb;
+use beamlight_trace::{TraceScene, components::Component};
+use std::time::{Duration, Instant};
+
+const N: usize = Component::ALL.len();
+/// `vbl` passes before its estimate of a component gets any weight: the variance of two or
+/// three heavy-tailed passes says too little.
+pub const MIN_VBL_PASSES: u64 = 4;
+/// How often the combined films are refreshed for progress with a time budget.
+const REFRESH: Duration = Duration::from_millis(500);
+/// The largest share of a time budget spent measuring `vbl` before the schedule weighs it.
+const EXPLORE_SHARE: f64 = 0.1;
+/// Path-traced samples per pixel per round with a pass budget.
+pub const PT_SPP_PER_ROUND: u32 = 16;
+/// The `vbl` passes' seed is derived from the render's with this salt, so that the two
+/// estimators' random streams are independent (their errors must not correlate).
+const VBL_SEED_SALT: u32 = 0x6a09_e667;
+
+/// Where each component's estimate came from: what `--stats`, `--stats-json` and the EXR
+/// header report.
+#[derive(Clone, Debug, Default)]
+pub struct AutoReport {
+    /// Path-traced samples per pixel (every component gets all of them) and their seconds.
+    pub pt_spp: u64,
+    pub pt_seconds: f64,
+    /// `vbl` passes that computed each component, in [`Component::ALL`] order.
+    pub vbl_passes: [u64; N],
+    /// Seconds of `vbl` passes in all, and per component its estimator's share (the rest of
+    /// a pass, tracing, is shared).
+    pub vbl_seconds: f64,
+    pub vbl_component_seconds: [f64; N],
+    /// `vbl`'s weight per component, averaged over the image's pixels (0: all `pt`).
+    pub vbl_weight: [f64; N],
+    /// Components the scene can produce.
+    pub needed: [bool; N],
+    /// Components only `vbl` can estimate (see the module documentation).
+    pub vbl_only: [bool; N],
+}
+
+impl AutoReport {
+    /// One line per component the scene can produce, e.g.
+    /// `Lsm: pt 512 spp (shared 4.1 s), vbl 20 passes (1.2 s), vbl weight 0.38`.
+    pub fn lines(&self) -> Vec<String> {
+        Component::ALL
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| self.needed[*k])
+            .map(|(k, c)| {
+                format!(
+                    "{}: pt {} spp (shared, {:.2} s){}, vbl {} passes ({:.2} s), vbl weight {:.2}",
+                    c.name(),
+                    self.pt_spp,
+                    self.pt_seconds,
+                    if self.vbl_only[k] {
+                        " unused: it cannot reach these paths"
+                    } else {
+                        ""
+                    },
+                    self.vbl_passes[k],
+                    self.vbl_component_seconds[k],
+                    self.vbl_weight[k]
+                )
+            })
+            .collect()
+    }
+}
+
+/// Components whose paths the path tracer cannot sample in this scene: caustics of delta
+/// lights (punctual glTF lights) through delta surfaces (mirrors, glass).
+pub fn vbl_only(ts: &TraceScene) -> [bool; N] {
+    let features = SceneFeatures::of(&ts.scene);
+    let blind = features.specular_surfaces && !ts.scene.lights.is_empty();
+    std::array::from_fn(|k| blind && matches!(Component::ALL[k], Component::CausticSurface | Component::CausticVolume))
+}
+
+/// The two estimators' accumulated passes, per component, and their passes' image means.
+struct Estimates {
+    pt: Vec<Film>,
+    vbl: Vec<Film>,
+    pt_means: [PassMeans; N],
+    vbl_means: [PassMeans; N],
+}
+
+/// A step of the schedule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Step {
+    /// This many path-traced samples per pixel.
+    Pt(u32),
+    /// One `vbl` pass over these components.
+    Vbl([bool; N]),
+}
+
+/// Measured costs, running means.
+#[derive(Default)]
+struct Costs {
+    pt_seconds: f64,
+    pt_spp: u64,
+    /// Per `vbl` pass: the shared part (wall time not in any component's estimator), and per
+    /// component its estimator's seconds (CPU seconds over the threads plus GPU kernel seconds)
+    /// summed over the passes that computed it.
+    vbl_shared: f64,
+    vbl_passes: u64,
+    vbl_component: [f64; N],
+    vbl_component_passes: [u64; N],
+}
+
+impl Costs {
+    fn per_spp(&self) -> f64 {
+        self.pt_seconds / self.pt_spp.max(1) as f64
+    }
+
+    fn shared(&self) -> f64 {
+        self.vbl_shared / self.vbl_passes.max(1) as f64
+    }
+
+    fn component(&self, k: usize) -> f64 {
+        self.vbl_component[k] / self.vbl_component_passes[k].max(1) as f64
+    }
+
+    fn add_vbl(&mut self, times: &PassTimes, wall: f64, computed: &[bool; N]) {
+        let threads = rayon::current_num_threads() as f64;
+        let mut busy = [0f64; N];
+        for (k, b) in busy.iter_mut().enumerate() {
+            *b = times.component_cpu[k] / threads;
+        }
+        let kernels = many_lights::gpu_kernels(many_lights::VirtualLights::Beams);
+        for (kernel, c) in kernels.iter().zip(many_lights::KERNEL_COMPONENTS) {
+            busy[c as usize] += times.kernels[*kernel as usize];
+        }
+        // The estimators overlap (CPU and GPU) and run on several threads: scale their shares
+        // to the pass's wall time when they add up to more.
+        let sum: f64 = busy.iter().sum();
+        let scale = if sum > wall { wall / sum } else { 1.0 };
+        self.vbl_shared += (wall - sum * scale).max(0.0);
+        self.vbl_passes += 1;
+        for k in 0..N {
+            if computed[k] {
+                self.vbl_component[k] += busy[k] * scale;
+                self.vbl_component_passes[k] += 1;
+            }
+        }
+    }
+}
+
+/// Mean over pixels and channels of one pass, per pass: how much a pass's whole image moves,
+/// which the pixels' own variances understate when their errors correlate (a pass's virtual
+/// lights reach many pixels at once).
+#[derive(Clone, Copy, Debug, Default)]
+struct PassMeans {
+    n: f64,
+    sum: f64,
+    sum_sq: f64,
+}
+
+impl PassMeans {
+    fn add(&mut self, pass: &[Rgb]) {
+        let m = pass.iter().map(|v| (v[0] + v[1] + v[2]) as f64).sum::<f64>() / (3 * pass.len().max(1)) as f64;
+        self.n += 1.0;
+        self.sum += m;
+        self.sum_sq += m * m;
+    }
+
+    /// Variance of the mean over the passes so far (0 with fewer than two).
+    fn variance_of_mean(&self) -> f64 {
+        if self.n < 2.0 {
+            return 0.0;
+        }
+        let mean = self.sum / self.n;
+        ((self.sum_sq / self.n - mean * mean) * self.n / (self.n - 1.0)).max(0.0) / self.n
+    }
+}
+
+/// A film's per-entry (pixel and channel) mean and variance of the mean, read from its sums
+/// without building images (the schedule reads them after every step).
+struct Entries<'a> {
+    sum: &'a [[f64; 3]],
+    sum_sq: &'a [[f64; 3]],
+    n: f64,
+}
+
+impl<'a> Entries<'a> {
+    fn of(film: &'a Film) -> Self {
+        let (sum, sum_sq) = film.sums();
+        Self {
+            sum,
+            sum_sq,
+            n: film.samples as f64,
+        }
+    }
+
+    /// (mean, variance of the mean) as [`Film::image`] and [`Film::variance_of_mean`] give them.
+    fn get(&self, i: usize, c: usize) -> (f64, f64) {
+        if self.n < 1.0 {
+            return (0.0, 0.0);
+        }
+        let mean = self.sum[i][c] / self.n;
+        if self.n < 2.0 {
+            return (mean, 0.0);
+        }
+        let var = ((self.sum_sq[i][c] / self.n - mean * mean) * self.n / (self.n - 1.0)).max(0.0) / self.n;
+        (mean, var)
+    }
+}
+
+/// One component's error model: each estimator's variance, summed over pixels and channels
+/// with each entry's relative-error weight (1/(value² + 0.01), as `compare`'s relMSE), and the
+/// squared bias attributed to `vbl`, likewise weighted.
+#[derive(Clone, Copy, Debug, Default)]
+struct ComponentError {
+    pt: f64,
+    vbl: f64,
+    bias2: f64,
+}
+
+impl ComponentError {
+    /// `pt` from `n_pt` samples and `vbl` from `pass_means`-tracked passes, over an image whose
+    /// entries have relative-error weights `relative`.
+    fn of(pt: &Film, vbl: &Film, vbl_means: &PassMeans, pt_means: &PassMeans, relative: &[Rgb]) -> Self {
+        let (pt_entries, vbl_entries) = (Entries::of(pt), Entries::of(vbl));
+        let mut e = ComponentError::default();
+        let (mut diff, mut level, mut level_weighted) = (0f64, 0f64, 0f64);
+        for (i, r) in relative.iter().enumerate() {
+            for c in 0..3 {
+                let r = r[c] as f64;
+                let (m, v) = pt_entries.get(i, c);
+                let (mv, vv) = vbl_entries.get(i, c);
+                e.pt += v * r;
+                e.vbl += vv * r;
+                diff += mv - m;
+                level += m;
+                level_weighted += m * m * r;
+            }
+        }
+        // Relative bias of vbl's image mean, β = Δ/level, minus what the noise of the two
+        // image means explains (from their pass-to-pass spread, which includes the pixels'
+        // correlation); as a squared error it weighs like the component itself.
+        let entries = (3 * relative.len()).max(1) as f64;
+        if level > 0.0 && vbl.samples >= 2 {
+            let beta = diff / level;
+            let noise =
+                (vbl_means.variance_of_mean() + pt_means.variance_of_mean()) * entries * entries / (level * level);
+            e.bias2 = (beta * beta - noise).max(0.0) * level_weighted;
+        }
+        e
+    }
+
+    /// `vbl`'s weight: inverse errors; 0 when `vbl` has no estimate yet, 1 when `pt` has none.
+    fn vbl_weight(&self, has_vbl: bool, has_pt: bool) -> f64 {
+        match (has_vbl, has_pt) {
+            (false, _) => 0.0,
+            (true, false) => 1.0,
+            (true, true) => {
+                let total = self.pt + self.vbl + self.bias2;
+                if total > 0.0 { self.pt / total } else { 0.0 }
+            }
+        }
+    }
+
+    /// The combined error with `n_pt` samples of `pt` and `n_vbl` passes of `vbl` (from the
+    /// per-sample variances now), and its derivatives by each count.
+    fn model(&self, n_pt: f64, n_vbl: f64, has_vbl: bool) -> (f64, f64, f64) {
+        let s_pt = self.pt * n_pt;
+        let p = if s_pt > 0.0 { n_pt / s_pt } else { f64::INFINITY };
+        if !has_vbl {
+            return if s_pt > 0.0 {
+                (1.0 / p, -1.0 / (p * p * s_pt), 0.0)
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+        }
+        let s_vbl = self.vbl * n_vbl;
+        let e_vbl = s_vbl / n_vbl + self.bias2;
+        let q = if e_vbl > 0.0 { 1.0 / e_vbl } else { f64::INFINITY };
+        if !(p + q).is_finite() {
+            return (0.0, 0.0, 0.0);
+        }
+        let mse = 1.0 / (p + q);
+        let d_pt = if s_pt > 0.0 { -mse * mse / s_pt } else { 0.0 };
+        let d_vbl = -mse * mse * q * q * s_vbl / (n_vbl * n_vbl);
+        (mse, d_pt, d_vbl)
+    }
+}
+
+/// The combined estimate of one component with `vbl`'s weight `a`: its image and the variance
+/// of each pixel's estimate.
+fn combine(pt: &Film, vbl: &Film, a: f64) -> (Image, Image) {
+    let (mp, vp) = (pt.image(), pt.variance_of_mean());
+    let (mv, vv) = (vbl.image(), vbl.variance_of_mean());
+    let a = a as f32;
+    let mut image = Image::new(pt.width, pt.height);
+    let mut variance = Image::new(pt.width, pt.height);
+    for i in 0..image.pixels.len() {
+        image.pixels[i] = mp.pixels[i] * (1.0 - a) + mv.pixels[i] * a;
+        variance.pixels[i] = vp.pixels[i] * (1.0 - a) * (1.0 - a) + vv.pixels[i] * a * a;
+    }
+    (image, variance)
+}
+
+/// Renders with `--method auto` (see the module documentation). `vbl` holds the resolved
+/// settings of the `vbl` passes.
+pub fn render(
+    ts: &TraceScene,
+    opts: &RenderOptions,
+    vbl: &ManyLightSettings,
+    mut on_pass: impl FnMut(&Progress) -> bool,
+) -> Result<RenderResult, String> {
+    let (w, h) = (opts.width, opts.height);
+    let pixels = (w * h) as usize;
+    let needed_list = SceneFeatures::of(&ts.scene).needed();
+    let needed: [bool; N] = std::array::from_fn(|k| needed_list.contains(&Component::ALL[k]));
+    let vbl_only = vbl_only(ts);
+    let mut est = Estimates {
+        pt: (0..N).map(|_| Film::new(w, h)).collect(),
+        vbl: (0..N).map(|_| Film::new(w, h)).collect(),
+        pt_means: Default::default(),
+        vbl_means: Default::default(),
+    };
+    let mut costs = Costs::default();
+    let mut report = AutoReport {
+        needed,
+        vbl_only,
+        ..Default::default()
+    };
+    let vbl_seed = beamlight_scene::rng::pcg_hash(opts.seed ^ VBL_SEED_SALT);
+    let gpu = opts.gpu.as_deref();
+    let started = Instant::now();
+    let total = match opts.budget {
+        Budget::Passes(n) => Some(n),
+        Budget::Time(_) => None,
+    };
+    let mut beauty = vec![Rgb::ZERO; pixels];
+    let mut pt_components = vec![vec![Rgb::ZERO; pixels]; N];
+    let mut vbl_out: [Vec<Rgb>; N] = std::array::from_fn(|_| vec![Rgb::ZERO; pixels]);
+    let mut pass_times = Vec::new();
+    let mut discarded = [0u64; N];
+    let mut steps = 0u64;
+    let mut combined = Combined::new(w, h);
+    let mut last_combined = Instant::now();
+    loop {
+        let plan: Vec<Step> = match opts.budget {
+            Budget::Passes(n) if steps >= n => break,
+            Budget::Passes(_) => vec![Step::Vbl(needed), Step::Pt(PT_SPP_PER_ROUND)],
+            Budget::Time(limit) => {
+                let left = limit.saturating_sub(opts.start.elapsed()).as_secs_f64();
+                match next_step(&est, &costs, &combined, &needed, &vbl_only, limit, left) {
+                    Some(step) if steps == 0 || step_seconds(step, &costs) <= left => vec![step],
+                    // What is left fits only a shorter `pt` slice, if anything.
+                    _ => match (left / costs.per_spp().max(1e-9)).floor() as u32 {
+                        0 => break,
+                        k => vec![Step::Pt(k)],
+                    },
+                }
+            }
+        };
+        for step in plan {
+            let clock = Instant::now();
+            match step {
+                Step::Pt(k) => {
+                    for _ in 0..k {
+                        let pass = report.pt_spp as u32;
+                        path_trace_pass(
+                            ts,
+                            &opts.path_tracer,
+                            w,
+                            h,
+                            opts.seed,
+                            pass,
+                            &mut beauty,
+                            &mut pt_components,
+                        );
+                        for (k, b) in pt_components.iter().enumerate() {
+                            est.pt[k].add_pass(b);
+                            est.pt_means[k].add(b);
+                        }
+                        report.pt_spp += 1;
+                    }
+                    let s = clock.elapsed().as_secs_f64();
+                    costs.pt_seconds += s;
+                    costs.pt_spp += k as u64;
+                    report.pt_seconds += s;
+                }
+                Step::Vbl(mask) => {
+                    let settings = ManyLightSettings {
+                        components: mask,
+                        ..*vbl
+                    };
+                    let pass = costs.vbl_passes as u32;
+                    let mut times = many_lights::start_pass(ts, &settings, w, h, vbl_seed, pass, gpu)
+                        .and_then(|p| p.finish(gpu, &mut vbl_out))
+                        .map_err(|e| format!("vbl pass {pass} on the GPU: {e}"))?;
+                    let wall = clock.elapsed();
+                    times.wall = wall;
+                    for k in 0..N {
+                        if mask[k] {
+                            est.vbl[k].add_pass(&vbl_out[k]);
+                            est.vbl_means[k].add(&vbl_out[k]);
+                            report.vbl_passes[k] += 1;
+                        }
+                        discarded[k] += times.discarded[k];
+                    }
+                    costs.add_vbl(&times, wall.as_secs_f64(), &mask);
+                    report.vbl_seconds += wall.as_secs_f64();
+                    pass_times.push(times);
+                }
+            }
+        }
+        steps += 1;
+        report.vbl_component_seconds = costs.vbl_component;
+        combined.weigh(&est, &needed, &vbl_only, &mut report);
+        // The combined films cost a few image passes: after each round of a pass budget, but
+        // at most twice a second with a time budget (progress lines and `--write-every` do not
+        // need more). The result is always up to date.
+        if total.is_some() || last_combined.elapsed() >= REFRESH {
+            combined.combine(&est, &needed, &report);
+            last_combined = Instant::now();
+        }
+        let go_on = on_pass(&Progress {
+            passes: steps,
+            total,
+            film: &combined.film,
+            components: &combined.components,
+            elapsed: started.elapsed(),
+            discarded,
+            auto: Some(&report),
+        });
+        if !go_on {
+            break;
+        }
+    }
+    combined.combine(&est, &needed, &report);
+    // Samples the films dropped as non-finite: a bug if ever non-zero, reported with the image.
+    combined.film.rejected = est.pt.iter().chain(&est.vbl).map(|f| f.rejected).sum();
+    Ok(RenderResult {
+        film: combined.film,
+        components: if opts.components {
+            combined.components
+        } else {
+            Vec::new()
+        },
+        passes: steps,
+        elapsed: started.elapsed(),
+        pass_times,
+        auto: Some(report),
+    })
+}
+
+/// The combined estimate, as films whose means are the combination and whose variances are
+/// its estimated variance (so that every consumer of a film reads it as usual), and the
+/// per-component errors the schedule works from.
+struct Combined {
+    film: Film,
+    components: Vec<Film>,
+    errors: [ComponentError; N],
+}
+
+impl Combined {
+    fn new(w: u32, h: u32) -> Self {
+        Self {
+            film: Film::new(w, h),
+            components: (0..N).map(|_| Film::new(w, h)).collect(),
+            errors: Default::default(),
+        }
+    }
+
+    /// The error model and `vbl`'s weight of every component, from the estimates now.
+    fn weigh(&mut self, est: &Estimates, needed: &[bool; N], vbl_only: &[bool; N], report: &mut AutoReport) {
+        // Each pixel's relative-error weight, from the current beauty estimate (pt's where
+        // there is one: it is unbiased).
+        let entries: Vec<Entries> = (0..N)
+            .map(|k| {
+                Entries::of(if est.pt[k].samples > 0 && !vbl_only[k] {
+                    &est.pt[k]
+                } else {
+                    &est.vbl[k]
+                })
+            })
+            .collect();
+        let relative: Vec<Rgb> = (0..self.film.width as usize * self.film.height as usize)
+            .map(|i| {
+                let b = |c: usize| entries.iter().map(|e| e.get(i, c).0).sum::<f64>() as f32;
+                let b = Rgb::new(b(0), b(1), b(2));
+                Rgb::ONE / (b * b + Rgb::splat(0.01))
+            })
+            .collect();
+        for k in 0..N {
+            let (pt, vbl) = (&est.pt[k], &est.vbl[k]);
+            if !needed[k] {
+                self.errors[k] = ComponentError::default();
+                continue;
+            }
+            self.errors[k] = ComponentError::of(pt, vbl, &est.vbl_means[k], &est.pt_means[k], &relative);
+            let has_vbl = vbl.samples >= MIN_VBL_PASSES || (vbl_only[k] && vbl.samples > 0);
+            let has_pt = pt.samples >= 2 && !vbl_only[k];
+            report.vbl_weight[k] = self.errors[k].vbl_weight(has_vbl, has_pt);
+        }
+    }
+
+    /// The combined films with the weights of the last [`Combined::weigh`].
+    fn combine(&mut self, est: &Estimates, needed: &[bool; N], report: &AutoReport) {
+        let (w, h) = (self.film.width, self.film.height);
+        let samples = est.pt[0]
+            .samples
+            .max(est.vbl.iter().map(|f| f.samples).max().unwrap_or(0));
+        let mut total = Image::new(w, h);
+        let mut total_var = Image::new(w, h);
+        for k in 0..N {
+            if !needed[k] {
+                self.components[k] = Film::new(w, h);
+                continue;
+            }
+            let (image, variance) = combine(&est.pt[k], &est.vbl[k], report.vbl_weight[k]);
+            for i in 0..image.pixels.len() {
+                total.pixels[i] += image.pixels[i];
+                total_var.pixels[i] += variance.pixels[i];
+            }
+            self.components[k] = Film::from_estimate(&image, &variance, samples);
+        }
+        self.film = Film::from_estimate(&total, &total_var, samples);
+    }
+}
+
+/// Predicted seconds of a step.
+fn step_seconds(step: Step, costs: &Costs) -> f64 {
+    match step {
+        Step::Pt(k) => k as f64 * costs.per_spp(),
+        Step::Vbl(mask) => costs.shared() + (0..N).filter(|&k| mask[k]).map(|k| costs.component(k)).sum::<f64>(),
+    }
+}
+
+/// The next step with a time budget: first measure both estimators (two `pt` samples, then
+/// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance), then
+/// whichever lowers the modelled error fastest per second.
+fn next_step(
+    est: &Estimates,
+    costs: &Costs,
+    combined: &Combined,
+    needed: &[bool; N],
+    vbl_only: &[bool; N],
+    limit: Duration,
+    left: f64,
+) -> Option<Step> {
+    let slice = (limit.as_secs_f64() / 32.0).clamp(0.05, 1.0).min(left.max(0.0));
+    let pt_slice = |costs: &Costs| ((slice / costs.per_spp().max(1e-9)).round() as u32).max(1);
+    let any_pt = (0..N).any(|k| needed[k] && !vbl_only[k]);
+    let any_vbl = (0..N).any(|k| needed[k]);
+    if any_pt && est.pt[0].samples < 2 {
+        return Some(Step::Pt(2));
+    }
+    // Measuring `vbl` takes at most a tenth of the budget (after its first pass, which shows
+    // what a pass costs), unless a component has no other estimator.
+    let explore = costs.vbl_passes == 0
+        || (0..N).any(|k| needed[k] && vbl_only[k])
+        || step_seconds(Step::Vbl(*needed), costs) * MIN_VBL_PASSES as f64 <= EXPLORE_SHARE * limit.as_secs_f64();
+    if any_vbl && costs.vbl_passes < MIN_VBL_PASSES && explore {
+        return Some(Step::Vbl(*needed));
+    }
+    let n_pt = est.pt[0].samples as f64;
+    // Error reduction per second of path tracing, summed over the components it serves.
+    let mut pt_rate = 0.0;
+    let mut vbl_gain = [0f64; N];
+    for k in 0..N {
+        if !needed[k] {
+            continue;
+        }
+        let n_vbl = est.vbl[k].samples as f64;
+        let e = &combined.errors[k];
+        if vbl_only[k] {
+            // Only `vbl` serves it: a pass lowers its variance of the mean, s/n, by s/n².
+            vbl_gain[k] += e.vbl / n_vbl.max(1.0);
+            continue;
+        }
+        let (_, d_pt, d_vbl) = e.model(n_pt, n_vbl, est.vbl[k].samples >= MIN_VBL_PASSES);
+        pt_rate -= d_pt;
+        vbl_gain[k] -= d_vbl;
+    }
+    pt_rate /= costs.per_spp().max(1e-9);
+    // `vbl` components worth their own seconds against the path tracer's rate.
+    let mut mask = [false; N];
+    for k in 0..N {
+        mask[k] = needed[k] && vbl_gain[k] > pt_rate * costs.component(k).max(1e-6);
+    }
+    if mask.iter().any(|&m| m) {
+        let seconds = step_seconds(Step::Vbl(mask), costs).max(1e-6);
+        let gain: f64 = (0..N).filter(|&k| mask[k]).map(|k| vbl_gain[k]).sum();
+        if gain / seconds > pt_rate || !any_pt {
+            return Some(Step::Vbl(mask));
+        }
+    }
+    if !any_pt {
+        return None;
+    }
+    Some(Step::Pt(pt_slice(costs)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A film of `n` passes whose pixel values are `mean ± spread` alternately (so its
+    /// per-pixel variance of the mean is spread²·n/(n−1)/n).
+    fn film(w: u32, h: u32, n: u64, mean: f32, spread: f32) -> Film {
+        let mut f = Film::new(w, h);
+        for i in 0..n {
+            let v = if i % 2 == 0 { mean + spread } else { mean - spread };
+            f.add_pass(&vec![Rgb::splat(v); (w * h) as usize]);
+        }
+        f
+    }
+
+    /// The error model of two films with their pass means tracked.
+    fn errors(pt: &Film, vbl: &Film, pt_means: &PassMeans, vbl_means: &PassMeans) -> ComponentError {
+        ComponentError::of(
+            pt,
+            vbl,
+            vbl_means,
+            pt_means,
+            &vec![Rgb::ONE; (pt.width * pt.height) as usize],
+        )
+    }
+
+    fn means(n: u64, mean: f64, spread: f64) -> PassMeans {
+        let mut m = PassMeans::default();
+        for i in 0..n {
+            let v = if i % 2 == 0 { mean + spread } else { mean - spread };
+            m.add(&[Rgb::splat(v as f32)]);
+        }
+        m
+    }
+
+    /// Inverse-variance weights: the less noisy estimator dominates in proportion, and the
+    /// combination's variance is the weighted one.
+    #[test]
+    fn combination_weighs_by_inverse_variance() {
+        let (w, h) = (16, 16);
+        // Same mean, vbl's variance a quarter of pt's: vbl's weight 4/5.
+        let pt = film(w, h, 64, 1.0, 0.4);
+        let vbl = film(w, h, 64, 1.0, 0.2);
+        let e = errors(&pt, &vbl, &means(64, 1.0, 0.4), &means(64, 1.0, 0.2));
+        assert_eq!(e.bias2, 0.0);
+        let weight = e.vbl_weight(true, true);
+        assert!((weight - 0.8).abs() < 1e-6, "vbl weight {weight}");
+        let (image, variance) = combine(&pt, &vbl, weight);
+        assert!((image.pixels[17][0] - 1.0).abs() < 1e-6);
+        let vp = pt.variance_of_mean().pixels[0][0];
+        let expected = vp * 0.2 * 0.2 + vp / 4.0 * 0.8 * 0.8;
+        assert!((variance.pixels[0][0] - expected).abs() < 1e-6 * expected);
+        // Without a vbl estimate (or before enough passes), pt alone; without pt, vbl alone.
+        assert_eq!(e.vbl_weight(false, true), 0.0);
+        assert_eq!(e.vbl_weight(true, false), 1.0);
+        // A combined film reads back as the estimate it was made from.
+        let f = Film::from_estimate(&image, &variance, 64);
+        assert!((f.image().pixels[3][1] - image.pixels[3][1]).abs() < 1e-6);
+        let v = f.variance_of_mean().pixels[3][1];
+        assert!((v - variance.pixels[3][1]).abs() < 1e-4 * variance.pixels[3][1], "{v}");
+    }
+
+    /// A biased vbl (its image mean off by far more than both estimates' noise) loses its
+    /// weight: the bias term, not the variance, decides; an unbiased one keeps it.
+    #[test]
+    fn a_biased_estimate_loses_its_weight() {
+        let (w, h) = (16, 16);
+        let pt = film(w, h, 64, 1.0, 0.4);
+        let vbl = film(w, h, 64, 0.8, 0.01);
+        let e = errors(&pt, &vbl, &means(64, 1.0, 0.4 / 16.0), &means(64, 0.8, 0.01));
+        // Its variance alone would give it 99.9 % of the weight; pt's variance of the mean
+        // (0.0025 per entry) against the squared bias (0.04) leaves it 6 %.
+        let weight = e.vbl_weight(true, true);
+        assert!(weight < 0.1, "a 20 % bias kept vbl's weight at {weight}");
+        let (image, _) = combine(&pt, &vbl, weight);
+        assert!((image.pixels[0][0] - 1.0).abs() < 0.02, "{}", image.pixels[0][0]);
+        // The same difference within the image means' noise (a pass-to-pass spread of the
+        // whole image of 2.0, as when a pass's few lights reach every pixel) is not bias.
+        let e = errors(&pt, &vbl, &means(64, 1.0, 2.0), &means(64, 0.8, 2.0));
+        assert_eq!(e.bias2, 0.0);
+        // Unbiased and far more precise: it takes nearly all of the weight.
+        let vbl = film(w, h, 64, 1.0, 0.01);
+        let e = errors(&pt, &vbl, &means(64, 1.0, 0.4 / 16.0), &means(64, 1.0, 0.01));
+        assert!(e.vbl_weight(true, true) > 0.99);
+    }
+
+    /// The error model: with `vbl` absent it is pt's variance of the mean, falling as 1/n;
+    /// with both, the harmonic combination, and each count's derivative matches a difference.
+    #[test]
+    fn error_model_and_its_derivatives() {
+        let e = ComponentError {
+            pt: 0.5,
+            vbl: 0.25,
+            bias2: 0.01,
+        };
+        let (mse, d_pt, _) = e.model(100.0, 10.0, false);
+        assert!((mse - 0.5).abs() < 1e-12);
+        assert!((d_pt + 0.5 / 100.0).abs() < 1e-12, "{d_pt}");
+        let (mse, d_pt, d_vbl) = e.model(100.0, 10.0, true);
+        assert!((mse - 1.0 / (1.0 / 0.5 + 1.0 / 0.26)).abs() < 1e-12);
+        let h = 1e-3;
+        let fd_pt = (e.model(100.0 + h, 10.0, true).0 - e.model(100.0 - h, 10.0, true).0) / (2.0 * h);
+        // Moving n while the per-sample variance stays put: the model's variance scales as
+        // n_then / n.
+        let scaled = |n_pt: f64, n_vbl: f64| {
+            ComponentError {
+                pt: 0.5 * 100.0 / n_pt,
+                vbl: 0.25 * 10.0 / n_vbl,
+                bias2: 0.01,
+            }
+            .model(n_pt, n_vbl, true)
+            .0
+        };
+        let fd_pt2 = (scaled(100.0 + h, 10.0) - scaled(100.0 - h, 10.0)) / (2.0 * h);
+        let fd_vbl = (scaled(100.0, 10.0 + h) - scaled(100.0, 10.0 - h)) / (2.0 * h);
+        assert!((d_pt - fd_pt2).abs() < 1e-6 * fd_pt2.abs(), "{d_pt} vs {fd_pt2}");
+        assert!((d_vbl - fd_vbl).abs() < 1e-6 * fd_vbl.abs(), "{d_vbl} vs {fd_vbl}");
+        let _ = fd_pt;
+    }
+}

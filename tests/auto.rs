@@ -1,0 +1,141 @@
+//! `--method auto` (`beamlight_render::auto`): the combination of `pt` and `vbl` converges to
+//! the same answers as each alone (the furnace's 2.0, the path tracer's component split), it
+//! is a pure function of the seed with a pass budget, and components only `vbl` can reach
+//! come from it.
+mod common;
+use beamlight_render::{Budget, Method, RenderOptions, RenderResult, many_lights::ManyLightSettings, render};
+use beamlight_trace::{TraceScene, components::Component, pt::PathTracerSettings};
+use common::*;
+use glam::DVec3;
+use std::time::Instant;
+
+fn options(w: u32, h: u32, rounds: u64, seed: u32) -> RenderOptions {
+    RenderOptions {
+        method: Method::Auto,
+        width: w,
+        height: h,
+        budget: Budget::Passes(rounds),
+        seed,
+        first_pass: 0,
+        path_tracer: PathTracerSettings::default(),
+        start: Instant::now(),
+        components: true,
+        many_lights: ManyLightSettings::default(),
+        gpu: None,
+    }
+}
+
+/// Component image means of `seeds` independent `auto` renders, with standard errors from
+/// their spread (the combination is not a running mean of passes, so the batches are whole
+/// renders), and the image's.
+fn means_over_seeds(ts: &TraceScene, rounds: u64, seeds: u32) -> ([DVec3; 7], [DVec3; 7], DVec3, DVec3, RenderResult) {
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    let mut parts = BatchMeans::default();
+    let mut whole = BatchMeans::default();
+    let (mut sum, mut image) = ([DVec3::ZERO; 7], DVec3::ZERO);
+    let mut last = None;
+    for seed in 0..seeds {
+        let result = render(ts, &options(w, h, rounds, 100 + seed), |_| true).unwrap();
+        assert_eq!(result.film.rejected, 0);
+        assert_eq!(result.discarded(), [0; 7], "estimates discarded per component");
+        let means: [DVec3; 7] = std::array::from_fn(|c| result.components[c].image().mean().as_dvec3());
+        let mut beauty = [DVec3::ZERO; 7];
+        beauty[0] = result.film.image().mean().as_dvec3();
+        for c in 0..7 {
+            sum[c] += means[c] / seeds as f64;
+        }
+        image += beauty[0] / seeds as f64;
+        parts.push(&means);
+        whole.push(&beauty);
+        last = Some(result);
+    }
+    (
+        sum,
+        parts.standard_errors(),
+        image,
+        whole.standard_errors()[0],
+        last.expect("a render"),
+    )
+}
+
+/// The furnace (a closed white box of albedo-1 fog, emission 1 everywhere) is 2.0 in every
+/// pixel. Fails if the combination loses or doubles light (weights not summing to one, a
+/// component combined twice or dropped), to about 4 standard errors (printed).
+#[test]
+fn auto_furnace_converges_to_two() {
+    let ts = TraceScene::new(furnace(beamlight_scene::Rgb::ONE, 0.5, None));
+    let (_, _, mean, se, last) = means_over_seeds(&ts, 16, 16);
+    let z = ((mean - DVec3::splat(2.0)) / se).abs().max_element();
+    let report = last.auto.as_ref().expect("auto reports its schedule");
+    eprintln!(
+        "auto furnace: {mean:.4} ± {:.4} (z {z:.2}); {:?}",
+        se.max_element(),
+        report.lines()
+    );
+    assert!(z < 4.0, "furnace {mean} ± {se}, not 2.0");
+    assert_eq!(report.pt_spp, 16 * beamlight_render::auto::PT_SPP_PER_ROUND as u64);
+}
+
+/// Per component, `auto` against the path tracer alone in the fog box (every component but
+/// the caustics), to 4 standard errors. Fails if a component's combination is biased by more
+/// (a weight applied to the wrong estimate, the vbl passes' components credited wrongly).
+#[test]
+fn auto_components_match_the_path_tracer() {
+    let ts = TraceScene::new(fog_box(4, 4, false));
+    let (means, errors, _, _, last) = means_over_seeds(&ts, 48, 16);
+    let reference = pt_components_with_errors(&ts, 16384, 11);
+    let report = last.auto.as_ref().expect("auto reports its schedule");
+    for line in report.lines() {
+        eprintln!("{line}");
+    }
+    // Both estimators must have taken part, or this tests only one of them.
+    assert!(report.vbl_passes.iter().all(|&n| n == 48 || n == 0));
+    assert!(report.vbl_weight.iter().any(|&w| w > 0.05), "vbl had no weight");
+    assert_components_within_errors(
+        "auto",
+        (&means, &errors),
+        (&reference.0, &reference.1),
+        &[
+            Component::Direct,
+            Component::Lss,
+            Component::Lsm,
+            Component::Lms,
+            Component::Lmm,
+        ],
+        4.0,
+    );
+}
+
+/// With a pass budget the schedule is fixed: the same seed gives the same image, bit for bit,
+/// and another seed another image.
+#[test]
+fn auto_is_deterministic_with_a_pass_budget() {
+    let ts = TraceScene::new(fog_box(6, 4, false));
+    let run = |seed| render(&ts, &options(6, 4, 4, seed), |_| true).unwrap().film.image();
+    let (a, b, c) = (run(3), run(3), run(4));
+    assert_eq!(a.pixels, b.pixels);
+    assert_ne!(a.pixels, c.pixels);
+}
+
+/// Caustics of a point lamp through a glass ball: the path tracer cannot sample them (a delta
+/// light through a delta surface), so `auto` takes them from `vbl` alone, whole, and not the
+/// path tracer's zero.
+#[test]
+fn auto_takes_caustics_of_point_lights_from_vbl() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_glass_ball_scene(dir.path());
+    let mut scene = beamlight_scene::load::load_scene(&path).unwrap();
+    scene.render.width = 8;
+    scene.render.height = 8;
+    let ts = TraceScene::new(scene);
+    let only = beamlight_render::auto::vbl_only(&ts);
+    assert!(only[Component::CausticSurface as usize] && only[Component::CausticVolume as usize]);
+    assert!(!only[Component::Lss as usize]);
+    let result = render(&ts, &options(8, 8, 4, 1), |_| true).unwrap();
+    let report = result.auto.as_ref().unwrap();
+    for c in [Component::CausticSurface, Component::CausticVolume] {
+        assert_eq!(report.vbl_weight[c as usize], 1.0, "{}", c.name());
+        let mean = result.components[c as usize].image().mean();
+        assert!(mean.max_element() > 0.0, "{}: no light", c.name());
+    }
+}
