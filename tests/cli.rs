@@ -36,7 +36,7 @@ fn render(scene: &Path, out: &Path, extra: &[&str]) -> Output {
 }
 
 /// The methods of `--method`.
-const METHODS: [&str; 4] = ["pt", "vbl", "vrl", "vrl-clamped"];
+const METHODS: [&str; 5] = ["pt", "vbl", "vrl", "vrl-clamped", "auto"];
 
 /// Every bundled scene (`assets/scenes/*.toml`, found by listing the directory, so a new scene
 /// is covered without editing this test) renders by every method, with the default backend, at
@@ -354,6 +354,66 @@ fn bad_command_lines_are_refused() {
     let o = render(&root().join("no/such/scene.toml"), &out, &["--spp", "1"]);
     assert!(!o.status.success() && stderr(&o).contains("no/such/scene.toml"));
     assert!(!out.exists());
+}
+
+/// `--method auto` refuses what needs its image to be a sum of passes (checkpoints, resuming,
+/// pass ranges) with an error that says why, and reports its schedule in the EXR header.
+#[test]
+fn auto_refuses_checkpoints_and_reports_its_schedule() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("assets/scenes/cornell_fog.toml");
+    let out = dir.path().join("a.exr");
+    let ckpt = dir.path().join("a.accum");
+    for extra in [
+        &["--checkpoint", ckpt.to_str().unwrap()][..],
+        &["--passes", "0..2"],
+        &["--resume", ckpt.to_str().unwrap(), "--passes", "4"],
+    ] {
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "auto",
+        ];
+        args.extend_from_slice(extra);
+        let o = beamlight(&args);
+        assert_eq!(o.status.code(), Some(1), "{extra:?}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--method auto cannot be checkpointed"),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!out.exists());
+    }
+    let o = beamlight(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        "auto",
+        "--time",
+        "1",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--stats",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("auto, per component"), "{}", stderr(&o));
+    let (img, meta) = read_exr(&out).unwrap();
+    assert!(img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0));
+    let schedule = &meta
+        .iter()
+        .find(|(k, _)| k == "beamlight.auto")
+        .expect("beamlight.auto")
+        .1;
+    for c in ["direct", "Lsm", "Lmm", "Lms", "Lss"] {
+        assert!(schedule.contains(&format!("{c}: pt ")), "{schedule}");
+    }
 }
 
 #[test]

@@ -829,7 +829,11 @@ fn stats_json(
         "process_seconds": process.as_secs_f64(),
         "startup_seconds": startup.as_secs_f64(),
         "render_seconds": result.elapsed.as_secs_f64(),
-        "path_tracing_seconds": if opts.method == Method::Pt { result.elapsed.as_secs_f64() } else { 0.0 },
+        "path_tracing_seconds": match (&result.auto, opts.method) {
+            (Some(report), _) => report.pt_seconds,
+            (None, Method::Pt) => result.elapsed.as_secs_f64(),
+            _ => 0.0,
+        },
         "trace_seconds": total(&|t| t.trace.as_secs_f64()),
         "cpu_estimates_seconds": total(&|t| t.cpu_estimates.as_secs_f64()),
         "gpu_wait_seconds": total(&|t| t.gpu_wait.as_secs_f64()),
@@ -1110,7 +1114,7 @@ fn info(path: &Path) -> Result<()> {
         }
         if !solo.is_empty() {
             plan += &format!(
-                "{}{}: vbl alone (the path tracer cannot reach caustics of point, spot or directional lights through mirrors or glass)",
+                "{}{}: vbl alone (the path tracer cannot follow light from point, spot or directional lights through mirrors or glass, which reaches these)",
                 if plan.is_empty() { "" } else { "; " },
                 list(&solo)
             );

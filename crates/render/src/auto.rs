@@ -27,9 +27,13 @@
 //! with weights in [0, 1], so it converges too, whatever the weights. A bias `vbl` still has is
 //! seen as a growing squared difference against the shrinking variances, and its weight falls.
 //!
-//! **Components the path tracer cannot reach** (caustics of a point, spot or directional light
-//! through mirrors or glass: a delta light seen through a delta surface) come from `vbl` alone:
-//! there the path tracer's zero would otherwise look exact.
+//! **Components the path tracer cannot reach** come from `vbl` alone: with a point, spot or
+//! directional light and mirrors or glass in the scene, paths that leave the delta light
+//! through a delta surface are beyond the path tracer (it can neither hit the light nor connect
+//! to it through the surface), and they feed the caustics and every indirect component (the
+//! caustic on a floor lights the walls). Its estimate of those components then lacks light
+//! with no variance to show it, so it must not be mixed in. Only `direct` (next-event
+//! estimation straight to the light) stays with both.
 //!
 //! With a time budget the schedule follows measured costs, so it differs from run to run; with
 //! a pass budget (`--passes N`) it is fixed, N rounds of one `vbl` pass over every component and
@@ -107,12 +111,13 @@ impl AutoReport {
     }
 }
 
-/// Components whose paths the path tracer cannot sample in this scene: caustics of delta
-/// lights (punctual glTF lights) through delta surfaces (mirrors, glass).
+/// Components the path tracer cannot estimate in this scene: with delta lights (punctual glTF
+/// lights) and delta surfaces (mirrors, glass), every one but `direct`, since light leaving
+/// the light through a delta surface reaches them all (see the module documentation).
 pub fn vbl_only(ts: &TraceScene) -> [bool; N] {
     let features = SceneFeatures::of(&ts.scene);
     let blind = features.specular_surfaces && !ts.scene.lights.is_empty();
-    std::array::from_fn(|k| blind && matches!(Component::ALL[k], Component::CausticSurface | Component::CausticVolume))
+    std::array::from_fn(|k| blind && Component::ALL[k] != Component::Direct)
 }
 
 /// The two estimators' accumulated passes, per component, and their passes' image means.
@@ -292,8 +297,17 @@ impl ComponentError {
             (false, _) => 0.0,
             (true, false) => 1.0,
             (true, true) => {
-                let total = self.pt + self.vbl + self.bias2;
-                if total > 0.0 { self.pt / total } else { 0.0 }
+                // A zero or overflowed total (a black component, sums beyond f64) says
+                // nothing: pt's estimate, unless only pt's error is infinite.
+                let vbl = self.vbl + self.bias2;
+                let w = self.pt / (self.pt + vbl);
+                if w.is_finite() {
+                    w.clamp(0.0, 1.0)
+                } else if self.pt.is_infinite() && vbl.is_finite() {
+                    1.0
+                } else {
+                    0.0
+                }
             }
         }
     }

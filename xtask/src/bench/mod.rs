@@ -116,8 +116,8 @@ fn parse(args: &[String]) -> Result<Options> {
         }
     }
     for m in &o.methods {
-        if !["pt", "vrl", "vrl-clamped", "vbl"].contains(&m.as_str()) {
-            bail!("unknown method '{m}' (pt, vrl, vrl-clamped, vbl)");
+        if !["pt", "vrl", "vrl-clamped", "vbl", "auto"].contains(&m.as_str()) {
+            bail!("unknown method '{m}' (pt, vrl, vrl-clamped, vbl, auto)");
         }
     }
     for b in &o.backends {
@@ -291,7 +291,9 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         let mut series: Vec<SeriesKey> = Vec::new();
         for m in &o.methods {
             for b in &o.backends {
-                if b == "gpu" && (m == "pt" || !gpu) {
+                // `pt` has no GPU kernels; `auto` runs on the CPU next to a CPU adapter (its
+                // own choice with `--backend auto`), and its `vbl` share is measured in `vbl`.
+                if b == "gpu" && (m == "pt" || m == "auto" || !gpu) {
                     continue;
                 }
                 series.push(SeriesKey {
@@ -637,6 +639,27 @@ fn scene_summary(
                 .filter_map(|(k, p)| p.last().map(|p| (k.label(), p.rel_mse)))
                 .min_by(|a, b| a.1.total_cmp(&b.1))
         };
+        // `auto` against the better of `pt` and `vbl` at every budget (issue 16's measure).
+        let best_at = |pred: &dyn Fn(&SeriesKey) -> bool, i: usize| {
+            curves
+                .iter()
+                .filter(|(k, _)| k.renderer == "beamlight" && pred(k))
+                .filter_map(|(_, p)| p.get(i).map(|p| p.rel_mse))
+                .min_by(|a, b| a.total_cmp(b))
+        };
+        let ratios: Vec<String> = (0..budgets.len())
+            .filter_map(|i| {
+                let auto = best_at(&|k| k.method == "auto", i)?;
+                let others = best_at(&|k| k.method == "pt" || k.method == "vbl", i)?;
+                Some(format!("{:.0} s {:.2}", budgets[i], auto / others))
+            })
+            .collect();
+        if !ratios.is_empty() {
+            headline.push(format!(
+                "{sname}: auto's relMSE / min(pt, vbl) at each budget: {}",
+                ratios.join(", ")
+            ));
+        }
         let vbl = at_last(&|k| k.method == "vbl");
         let pt_last = at_last(&|k| k.method == "pt" && k.renderer == "beamlight");
         let mi = at_last(&|k| k.renderer == "mitsuba");
@@ -689,6 +712,11 @@ fn scene_summary(
                 t,
             ));
         } else if let Some(obj) = st["components"].as_object() {
+            // `auto` path traces too, besides its `vbl` passes' components.
+            let t = st["path_tracing_seconds"].as_f64().unwrap_or(0.0);
+            if t > 0.0 {
+                parts.push((format!("path tracing {t:.2}"), "path tracing".into(), t));
+            }
             for c in component_names() {
                 if let Some(v) = obj.get(c) {
                     let secs = |f: &str| v[f].as_f64().unwrap_or(0.0).max(0.0);
