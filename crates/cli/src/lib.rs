@@ -308,13 +308,6 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         MethodArg::Vbl => Method::Vbl,
         MethodArg::Auto => Method::Auto,
     };
-    if method == Method::Auto
-        && (args.checkpoint.is_some() || args.resume.is_some() || args.passes.is_some_and(|r| r.start.is_some()))
-    {
-        bail!(
-            "--method auto cannot be checkpointed, resumed or split into pass ranges: its image is a weighted combination of two estimators, not a sum of passes"
-        );
-    }
     if let Some(c) = args.clamp_distance
         && !(c.is_finite() && c >= 0.0)
     {
@@ -458,12 +451,14 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         .clone()
         .or_else(|| range_start.map(|_| runs::default_accum_path(&args.output)));
     let accum_first = resumed.as_ref().map_or(opts.first_pass, |a| a.first_pass);
-    let accumulators = |film: &Film, components: &[Film]| beamlight_render::accum::Accumulators {
-        fingerprint: fingerprint.clone(),
-        first_pass: accum_first,
-        film: film.clone(),
-        components: components.to_vec(),
-    };
+    let accumulators =
+        |film: &Film, components: &[Film], auto: Option<&AutoReport>| beamlight_render::accum::Accumulators {
+            fingerprint: fingerprint.clone(),
+            first_pass: accum_first,
+            film: film.clone(),
+            components: components.to_vec(),
+            auto: auto.and_then(|r| r.sums.clone()),
+        };
     runs::catch_interrupts();
     let startup = start.elapsed();
     let bar = progress_bar(&budget);
@@ -505,7 +500,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             && last_checkpoint.elapsed().as_secs_f64() >= checkpoint_every
             && write_error.is_none()
         {
-            write_error = accumulators(p.film, p.components)
+            write_error = accumulators(p.film, p.components, p.auto)
                 .write(path)
                 .err()
                 .map(anyhow::Error::from);
@@ -528,7 +523,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         result.elapsed,
     )?;
     if let Some(path) = &accum_path {
-        accumulators(&result.film, &result.components).write(path)?;
+        accumulators(&result.film, &result.components, result.auto.as_ref()).write(path)?;
     }
     let secs = result.elapsed.as_secs_f64();
     if result.film.rejected > 0 {

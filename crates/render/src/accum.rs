@@ -7,8 +7,11 @@
 //!
 //! Format: the 8 bytes `BLACCUM1`, a little-endian u32 header length, a JSON header, then for
 //! each film (beauty first, then the components in `Component::ALL` order) its per-pixel sums
-//! and sums of squares as little-endian f64 RGB triples.
-use crate::{Film, output};
+//! and sums of squares as little-endian f64 RGB triples. An `auto` render's files go on with
+//! its two estimators' films (`pt`'s components, then `vbl`'s), described in the header's
+//! `auto` entry; its beauty and component films hold the combination, which a merge computes
+//! again from the merged estimators.
+use crate::{Film, auto::AutoSums, auto::PassMeans, output};
 use std::{
     ops::Range,
     path::{Path, PathBuf},
@@ -63,6 +66,22 @@ struct Header {
     height: u32,
     films: u32,
     rejected: Vec<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    auto: Option<AutoHeader>,
+}
+
+/// What an `auto` render keeps besides its films' sums ([`AutoSums`]).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct AutoHeader {
+    /// Samples and dropped samples of each estimator film, `pt`'s then `vbl`'s.
+    samples: Vec<u64>,
+    rejected: Vec<u64>,
+    /// (passes, sum, sum of squares) of the passes' image means, per estimator film.
+    means: Vec<[f64; 3]>,
+    needed: Vec<bool>,
+    vbl_only: Vec<bool>,
+    pt_next: u64,
+    vbl_next: u64,
 }
 
 /// A render's accumulated passes `first_pass .. first_pass + film.samples`.
@@ -75,6 +94,8 @@ pub struct Accumulators {
     pub film: Film,
     /// Per-component films (empty when the render kept no components).
     pub components: Vec<Film>,
+    /// `--method auto`: the two estimators' sums, which `film` and `components` combine.
+    pub auto: Option<AutoSums>,
 }
 
 impl Accumulators {
@@ -90,15 +111,35 @@ impl Accumulators {
 
     /// Writes the file atomically.
     pub fn write(&self, path: &Path) -> Result<(), output::OutputError> {
-        let films: Vec<&Film> = std::iter::once(&self.film).chain(&self.components).collect();
+        let mut films: Vec<&Film> = std::iter::once(&self.film).chain(&self.components).collect();
+        let regular = films.len() as u32;
+        let auto = self.auto.as_ref().map(|a| {
+            let estimators: Vec<&Film> = a.pt.iter().chain(&a.vbl).collect();
+            films.extend(&estimators);
+            AutoHeader {
+                samples: estimators.iter().map(|f| f.samples).collect(),
+                rejected: estimators.iter().map(|f| f.rejected).collect(),
+                means: a
+                    .pt_means
+                    .iter()
+                    .chain(&a.vbl_means)
+                    .map(|m| [m.n, m.sum, m.sum_sq])
+                    .collect(),
+                needed: a.needed.to_vec(),
+                vbl_only: a.vbl_only.to_vec(),
+                pt_next: a.pt_next,
+                vbl_next: a.vbl_next,
+            }
+        });
         let header = Header {
             fingerprint: self.fingerprint.clone(),
             first_pass: self.first_pass,
             passes: self.passes(),
             width: self.film.width,
             height: self.film.height,
-            films: films.len() as u32,
-            rejected: films.iter().map(|f| f.rejected).collect(),
+            films: regular,
+            rejected: films[..regular as usize].iter().map(|f| f.rejected).collect(),
+            auto,
         };
         let json = serde_json::to_vec(&header).expect("the header serialises");
         let pixels = self.film.width as usize * self.film.height as usize;
@@ -133,13 +174,24 @@ impl Accumulators {
         }
         let body = &bytes[12 + len..];
         let film_bytes = pixels * 48;
-        if body.len() != film_bytes * h.films as usize {
+        const N: usize = crate::components::Component::ALL.len();
+        if let Some(a) = &h.auto
+            && (a.samples.len() != 2 * N
+                || a.rejected.len() != 2 * N
+                || a.means.len() != 2 * N
+                || a.needed.len() != N
+                || a.vbl_only.len() != N)
+        {
+            return Err(err(path, "bad header: the auto render's entry is incomplete"));
+        }
+        let all_films = h.films as usize + h.auto.as_ref().map_or(0, |_| 2 * N);
+        if body.len() != film_bytes * all_films {
             return Err(err(
                 path,
                 format!(
                     "truncated or padded: {} bytes of sums, expected {}",
                     body.len(),
-                    film_bytes * h.films as usize
+                    film_bytes * all_films
                 ),
             ));
         }
@@ -154,24 +206,43 @@ impl Accumulators {
             }
             let triples = |v: &[f64]| v.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect::<Vec<_>>();
             let (sum, sum_sq) = values.split_at(pixels * 3);
+            let (samples, rejected) = match k.checked_sub(h.films as usize) {
+                None => (h.passes, h.rejected[k]),
+                Some(j) => {
+                    let a = h.auto.as_ref().expect("estimator films only with an auto entry");
+                    (a.samples[j], a.rejected[j])
+                }
+            };
             films.push(
-                Film::from_sums(
-                    h.width,
-                    h.height,
-                    triples(sum),
-                    triples(sum_sq),
-                    h.passes,
-                    h.rejected[k],
-                )
-                .expect("sizes checked above"),
+                Film::from_sums(h.width, h.height, triples(sum), triples(sum_sq), samples, rejected)
+                    .expect("sizes checked above"),
             );
         }
+        let auto = h.auto.map(|a| {
+            let vbl = films.split_off(films.len() - N);
+            let pt = films.split_off(films.len() - N);
+            let means = |i: usize| {
+                let [n, sum, sum_sq] = a.means[i];
+                PassMeans { n, sum, sum_sq }
+            };
+            AutoSums {
+                pt,
+                vbl,
+                pt_means: std::array::from_fn(means),
+                vbl_means: std::array::from_fn(|k| means(N + k)),
+                needed: std::array::from_fn(|k| a.needed[k]),
+                vbl_only: std::array::from_fn(|k| a.vbl_only[k]),
+                pt_next: a.pt_next,
+                vbl_next: a.vbl_next,
+            }
+        });
         let film = films.remove(0);
         Ok(Accumulators {
             fingerprint: h.fingerprint,
             first_pass: h.first_pass,
             film,
             components: films,
+            auto,
         })
     }
 
@@ -216,6 +287,21 @@ impl Accumulators {
             merged.film.add_film(&part.film);
             for (a, b) in merged.components.iter_mut().zip(&part.components) {
                 a.add_film(b);
+            }
+            match (&mut merged.auto, &part.auto) {
+                (Some(a), Some(b)) => a.add(b),
+                (None, None) => {}
+                _ => return Err("an auto render's parts cannot merge with another method's".into()),
+            }
+        }
+        // An `auto` render's image is not a sum: combine the merged estimators again.
+        if let Some(sums) = &merged.auto {
+            let (film, components, _) = sums.combined(merged.passes());
+            let rejected = sums.pt.iter().chain(&sums.vbl).map(|f| f.rejected).sum();
+            merged.film = film;
+            merged.film.rejected = rejected;
+            if !merged.components.is_empty() {
+                merged.components = components;
             }
         }
         Ok((merged, coverage))
@@ -378,6 +464,7 @@ mod tests {
             first_pass: 7,
             film: film(3, 2, 4, 0.5),
             components: vec![film(3, 2, 4, 0.25), film(3, 2, 4, 0.0)],
+            auto: None,
         };
         acc.write(&path).unwrap();
         let back = Accumulators::read(&path).unwrap();
@@ -409,6 +496,7 @@ mod tests {
             first_pass: first,
             film: film(2, 2, passes, first as f32),
             components: Vec::new(),
+            auto: None,
         };
         let (m, cov) = Accumulators::merge(vec![("b".into(), part(3, 2)), ("a".into(), part(0, 3))], None).unwrap();
         assert_eq!((m.first_pass, m.passes()), (0, 5));

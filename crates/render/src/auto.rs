@@ -38,6 +38,8 @@
 //! With a time budget the schedule follows measured costs, so it differs from run to run; with
 //! a pass budget (`--passes N`) it is fixed, N rounds of one `vbl` pass over every component and
 //! [`PT_SPP_PER_ROUND`] path-traced samples per pixel, so the same seed gives the same image.
+//! Checkpoints and pass ranges keep both estimators' sums ([`AutoSums`]), which add up; a
+//! merge combines them again.
 use crate::{
     Film, Image,
     components::SceneFeatures,
@@ -81,6 +83,8 @@ pub struct AutoReport {
     pub needed: [bool; N],
     /// Components only `vbl` can estimate (see the module documentation).
     pub vbl_only: [bool; N],
+    /// The running sums so far (for checkpoints and pass ranges).
+    pub sums: Option<AutoSums>,
 }
 
 impl AutoReport {
@@ -120,12 +124,71 @@ pub fn vbl_only(ts: &TraceScene) -> [bool; N] {
     std::array::from_fn(|k| blind && Component::ALL[k] != Component::Direct)
 }
 
-/// The two estimators' accumulated passes, per component, and their passes' image means.
-struct Estimates {
-    pt: Vec<Film>,
-    vbl: Vec<Film>,
-    pt_means: [PassMeans; N],
-    vbl_means: [PassMeans; N],
+/// The two estimators' running sums, per component, and their passes' image means: what a
+/// checkpoint or a pass range's accumulators hold of an `auto` render (`crate::accum`), and
+/// all the combination needs.
+#[derive(Clone, Debug)]
+pub struct AutoSums {
+    pub pt: Vec<Film>,
+    pub vbl: Vec<Film>,
+    pub pt_means: [PassMeans; N],
+    pub vbl_means: [PassMeans; N],
+    /// Components the scene can produce, and those only `vbl` can estimate ([`vbl_only`]).
+    pub needed: [bool; N],
+    pub vbl_only: [bool; N],
+    /// The next `pt` sample's and `vbl` pass's index in their global sequences (a pass
+    /// range's round r runs `vbl` pass r and `pt` samples from r · [`PT_SPP_PER_ROUND`]).
+    pub pt_next: u64,
+    pub vbl_next: u64,
+}
+
+impl AutoSums {
+    /// Nothing accumulated yet, for a render whose first round is `first_round`.
+    pub fn new(ts: &TraceScene, w: u32, h: u32, first_round: u64) -> Self {
+        let needed_list = SceneFeatures::of(&ts.scene).needed();
+        Self {
+            pt: (0..N).map(|_| Film::new(w, h)).collect(),
+            vbl: (0..N).map(|_| Film::new(w, h)).collect(),
+            pt_means: Default::default(),
+            vbl_means: Default::default(),
+            needed: std::array::from_fn(|k| needed_list.contains(&Component::ALL[k])),
+            vbl_only: vbl_only(ts),
+            pt_next: first_round * PT_SPP_PER_ROUND as u64,
+            vbl_next: first_round,
+        }
+    }
+
+    /// Adds another render's sums (other passes of the same render, as [`Film::add_film`]).
+    pub fn add(&mut self, other: &AutoSums) {
+        for (a, b) in self
+            .pt
+            .iter_mut()
+            .zip(&other.pt)
+            .chain(self.vbl.iter_mut().zip(&other.vbl))
+        {
+            a.add_film(b);
+        }
+        for (a, b) in self.pt_means.iter_mut().zip(&other.pt_means) {
+            a.add(b);
+        }
+        for (a, b) in self.vbl_means.iter_mut().zip(&other.vbl_means) {
+            a.add(b);
+        }
+        self.pt_next = self.pt_next.max(other.pt_next);
+        self.vbl_next = self.vbl_next.max(other.vbl_next);
+    }
+
+    /// The combined image (beauty, then each component in [`Component::ALL`] order) as films
+    /// whose means are the combination and whose variances its variance, as if from `passes`
+    /// passes; and `vbl`'s weight per component.
+    pub fn combined(&self, passes: u64) -> (Film, Vec<Film>, [f64; N]) {
+        let (w, h) = (self.pt[0].width, self.pt[0].height);
+        let mut c = Combined::new(w, h);
+        let mut report = AutoReport::default();
+        c.weigh(self, &mut report);
+        c.combine(self, &report, passes);
+        (c.film, c.components, report.vbl_weight)
+    }
 }
 
 /// A step of the schedule.
@@ -192,15 +255,22 @@ impl Costs {
 /// Mean over pixels and channels of one pass, per pass: how much a pass's whole image moves,
 /// which the pixels' own variances understate when their errors correlate (a pass's virtual
 /// lights reach many pixels at once).
-#[derive(Clone, Copy, Debug, Default)]
-struct PassMeans {
-    n: f64,
-    sum: f64,
-    sum_sq: f64,
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassMeans {
+    pub n: f64,
+    pub sum: f64,
+    pub sum_sq: f64,
 }
 
 impl PassMeans {
-    fn add(&mut self, pass: &[Rgb]) {
+    /// Adds another set of passes' means.
+    fn add(&mut self, other: &PassMeans) {
+        self.n += other.n;
+        self.sum += other.sum;
+        self.sum_sq += other.sum_sq;
+    }
+
+    fn push(&mut self, pass: &[Rgb]) {
         let m = pass.iter().map(|v| (v[0] + v[1] + v[2]) as f64).sum::<f64>() / (3 * pass.len().max(1)) as f64;
         self.n += 1.0;
         self.sum += m;
@@ -353,28 +423,33 @@ fn combine(pt: &Film, vbl: &Film, a: f64) -> (Image, Image) {
 }
 
 /// Renders with `--method auto` (see the module documentation). `vbl` holds the resolved
-/// settings of the `vbl` passes.
+/// settings of the `vbl` passes; `resume`, the sums and step count of a checkpoint to
+/// continue.
 pub fn render(
     ts: &TraceScene,
     opts: &RenderOptions,
     vbl: &ManyLightSettings,
+    resume: Option<(&AutoSums, u64)>,
     mut on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
     let (w, h) = (opts.width, opts.height);
     let pixels = (w * h) as usize;
-    let needed_list = SceneFeatures::of(&ts.scene).needed();
-    let needed: [bool; N] = std::array::from_fn(|k| needed_list.contains(&Component::ALL[k]));
-    let vbl_only = vbl_only(ts);
-    let mut est = Estimates {
-        pt: (0..N).map(|_| Film::new(w, h)).collect(),
-        vbl: (0..N).map(|_| Film::new(w, h)).collect(),
-        pt_means: Default::default(),
-        vbl_means: Default::default(),
+    let mut est = match resume {
+        Some((sums, _)) => {
+            if (sums.pt[0].width, sums.pt[0].height) != (w, h) {
+                return Err("the checkpoint holds a different image size".into());
+            }
+            sums.clone()
+        }
+        None => AutoSums::new(ts, w, h, opts.first_pass),
     };
+    let (needed, vbl_only) = (est.needed, est.vbl_only);
     let mut costs = Costs::default();
     let mut report = AutoReport {
         needed,
         vbl_only,
+        pt_spp: est.pt[0].samples,
+        vbl_passes: std::array::from_fn(|k| est.vbl[k].samples),
         ..Default::default()
     };
     let vbl_seed = beamlight_scene::rng::pcg_hash(opts.seed ^ VBL_SEED_SALT);
@@ -390,6 +465,8 @@ pub fn render(
     let mut pass_times = Vec::new();
     let mut discarded = [0u64; N];
     let mut steps = 0u64;
+    // Steps of the checkpoint continued: the combined films count every step.
+    let passes_before = resume.map_or(0, |(_, passes)| passes);
     let mut combined = Combined::new(w, h);
     let mut last_combined = Instant::now();
     loop {
@@ -398,7 +475,7 @@ pub fn render(
             Budget::Passes(_) => vec![Step::Vbl(needed), Step::Pt(PT_SPP_PER_ROUND)],
             Budget::Time(limit) => {
                 let left = limit.saturating_sub(opts.start.elapsed()).as_secs_f64();
-                match next_step(&est, &costs, &combined, &needed, &vbl_only, limit, left) {
+                match next_step(&est, &costs, &combined, limit, left) {
                     Some(step) if steps == 0 || step_seconds(step, &costs) <= left => vec![step],
                     // What is left fits only a shorter `pt` slice, if anything.
                     _ => match (left / costs.per_spp().max(1e-9)).floor() as u32 {
@@ -413,7 +490,8 @@ pub fn render(
             match step {
                 Step::Pt(k) => {
                     for _ in 0..k {
-                        let pass = report.pt_spp as u32;
+                        let pass = est.pt_next as u32;
+                        est.pt_next += 1;
                         path_trace_pass(
                             ts,
                             &opts.path_tracer,
@@ -426,7 +504,7 @@ pub fn render(
                         );
                         for (k, b) in pt_components.iter().enumerate() {
                             est.pt[k].add_pass(b);
-                            est.pt_means[k].add(b);
+                            est.pt_means[k].push(b);
                         }
                         report.pt_spp += 1;
                     }
@@ -440,7 +518,8 @@ pub fn render(
                         components: mask,
                         ..*vbl
                     };
-                    let pass = costs.vbl_passes as u32;
+                    let pass = est.vbl_next as u32;
+                    est.vbl_next += 1;
                     let mut times = many_lights::start_pass(ts, &settings, w, h, vbl_seed, pass, gpu)
                         .and_then(|p| p.finish(gpu, &mut vbl_out))
                         .map_err(|e| format!("vbl pass {pass} on the GPU: {e}"))?;
@@ -449,7 +528,7 @@ pub fn render(
                     for k in 0..N {
                         if mask[k] {
                             est.vbl[k].add_pass(&vbl_out[k]);
-                            est.vbl_means[k].add(&vbl_out[k]);
+                            est.vbl_means[k].push(&vbl_out[k]);
                             report.vbl_passes[k] += 1;
                         }
                         discarded[k] += times.discarded[k];
@@ -462,14 +541,15 @@ pub fn render(
         }
         steps += 1;
         report.vbl_component_seconds = costs.vbl_component;
-        combined.weigh(&est, &needed, &vbl_only, &mut report);
+        combined.weigh(&est, &mut report);
         // The combined films cost a few image passes: after each round of a pass budget, but
         // at most twice a second with a time budget (progress lines and `--write-every` do not
         // need more). The result is always up to date.
         if total.is_some() || last_combined.elapsed() >= REFRESH {
-            combined.combine(&est, &needed, &report);
+            combined.combine(&est, &report, passes_before + steps);
             last_combined = Instant::now();
         }
+        report.sums = Some(est.clone());
         let go_on = on_pass(&Progress {
             passes: steps,
             total,
@@ -483,7 +563,8 @@ pub fn render(
             break;
         }
     }
-    combined.combine(&est, &needed, &report);
+    combined.combine(&est, &report, passes_before + steps);
+    report.sums = Some(est.clone());
     // Samples the films dropped as non-finite: a bug if ever non-zero, reported with the image.
     combined.film.rejected = est.pt.iter().chain(&est.vbl).map(|f| f.rejected).sum();
     Ok(RenderResult {
@@ -519,7 +600,8 @@ impl Combined {
     }
 
     /// The error model and `vbl`'s weight of every component, from the estimates now.
-    fn weigh(&mut self, est: &Estimates, needed: &[bool; N], vbl_only: &[bool; N], report: &mut AutoReport) {
+    fn weigh(&mut self, est: &AutoSums, report: &mut AutoReport) {
+        let (needed, vbl_only) = (&est.needed, &est.vbl_only);
         // Each pixel's relative-error weight, from the current beauty estimate (pt's where
         // there is one: it is unbiased).
         let entries: Vec<Entries> = (0..N)
@@ -551,12 +633,11 @@ impl Combined {
         }
     }
 
-    /// The combined films with the weights of the last [`Combined::weigh`].
-    fn combine(&mut self, est: &Estimates, needed: &[bool; N], report: &AutoReport) {
+    /// The combined films with the weights of the last [`Combined::weigh`], as if from
+    /// `samples` passes.
+    fn combine(&mut self, est: &AutoSums, report: &AutoReport, samples: u64) {
         let (w, h) = (self.film.width, self.film.height);
-        let samples = est.pt[0]
-            .samples
-            .max(est.vbl.iter().map(|f| f.samples).max().unwrap_or(0));
+        let needed = &est.needed;
         let mut total = Image::new(w, h);
         let mut total_var = Image::new(w, h);
         for k in 0..N {
@@ -586,15 +667,8 @@ fn step_seconds(step: Step, costs: &Costs) -> f64 {
 /// The next step with a time budget: first measure both estimators (two `pt` samples, then
 /// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance), then
 /// whichever lowers the modelled error fastest per second.
-fn next_step(
-    est: &Estimates,
-    costs: &Costs,
-    combined: &Combined,
-    needed: &[bool; N],
-    vbl_only: &[bool; N],
-    limit: Duration,
-    left: f64,
-) -> Option<Step> {
+fn next_step(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration, left: f64) -> Option<Step> {
+    let (needed, vbl_only) = (&est.needed, &est.vbl_only);
     let slice = (limit.as_secs_f64() / 32.0).clamp(0.05, 1.0).min(left.max(0.0));
     let pt_slice = |costs: &Costs| ((slice / costs.per_spp().max(1e-9)).round() as u32).max(1);
     let any_pt = (0..N).any(|k| needed[k] && !vbl_only[k]);
@@ -607,7 +681,8 @@ fn next_step(
     let explore = costs.vbl_passes == 0
         || (0..N).any(|k| needed[k] && vbl_only[k])
         || step_seconds(Step::Vbl(*needed), costs) * MIN_VBL_PASSES as f64 <= EXPLORE_SHARE * limit.as_secs_f64();
-    if any_vbl && costs.vbl_passes < MIN_VBL_PASSES && explore {
+    let vbl_runs = est.vbl.iter().map(|f| f.samples).max().unwrap_or(0);
+    if any_vbl && vbl_runs < MIN_VBL_PASSES && costs.vbl_passes < MIN_VBL_PASSES && explore {
         return Some(Step::Vbl(*needed));
     }
     let n_pt = est.pt[0].samples as f64;
@@ -678,7 +753,7 @@ mod tests {
         let mut m = PassMeans::default();
         for i in 0..n {
             let v = if i % 2 == 0 { mean + spread } else { mean - spread };
-            m.add(&[Rgb::splat(v as f32)]);
+            m.push(&[Rgb::splat(v as f32)]);
         }
         m
     }

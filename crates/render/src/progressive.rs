@@ -166,10 +166,16 @@ pub fn render_from(
         ..opts.many_lights
     };
     if opts.method == Method::Auto {
-        if resume.is_some() {
-            return Err("`--method auto` cannot continue a checkpoint: its estimate is not a sum of passes".into());
-        }
-        return crate::auto::render(ts, opts, &many_light_settings, on_pass);
+        let sums = match resume {
+            Some(acc) => Some((
+                acc.auto
+                    .as_ref()
+                    .ok_or("the checkpoint holds no `auto` render's estimators")?,
+                acc.passes(),
+            )),
+            None => None,
+        };
+        return crate::auto::render(ts, opts, &many_light_settings, sums, on_pass);
     }
     let (w, h) = (opts.width, opts.height);
     let mut film = Film::new(w, h);
