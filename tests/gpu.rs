@@ -310,8 +310,9 @@ fn compare_gathers_chunked(
     let pair_seed = streams::pair_seed(seed);
     let vsl_tree = LightTree::over_vsls(&ts.scene, &lights.vpls);
     let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
-    // `light_samples` lights drawn per record from the trees, or 0 for all pairs.
-    let run = |kernels: [GatherKernel; 4], radius2: f32, light_samples: u32| {
+    // `light_samples` lights drawn per record from the trees (`media_light_samples` per camera
+    // segment from the VBL tree), or 0 for all pairs.
+    let run = |kernels: [GatherKernel; 4], radius2: f32, light_samples: u32, media_light_samples: u32| {
         let inputs = GatherInputs {
             shading_points: &gather.shading_points,
             media_segments: &gather.media_segments,
@@ -324,6 +325,7 @@ fn compare_gathers_chunked(
             radius2,
             vbl: vbl_settings,
             light_samples,
+            media_light_samples,
             vsl_tree: if light_samples > 0 { &vsl_tree.nodes } else { &[] },
             vbl_tree: if light_samples > 0 { &vbl_tree.nodes } else { &[] },
         };
@@ -346,7 +348,7 @@ fn compare_gathers_chunked(
     let (vpls, vrls) = (&lights.vpls, &lights.vrls);
 
     if let Some(clamp) = clamp {
-        let (g, gpu_time) = run(GatherKernel::RAYS, 0.0, 0);
+        let (g, gpu_time) = run(GatherKernel::RAYS, 0.0, 0, 0);
         let clock = Instant::now();
         let cpu: [PerRecord; 4] = [
             per_record(sps, vpls, m, |i, sp, j, v| {
@@ -381,7 +383,7 @@ fn compare_gathers_chunked(
 
     for &r in radii {
         let r2 = r * r;
-        let (g, gpu_time) = run(GatherKernel::BEAMS, r2, 0);
+        let (g, gpu_time) = run(GatherKernel::BEAMS, r2, 0, 0);
         let clock = Instant::now();
         let s = &vbl_settings;
         let cpu: [PerRecord; 4] = [
@@ -418,8 +420,9 @@ fn compare_gathers_chunked(
 
         // Light selection: the same lights drawn per record on both sides (the WGSL tree
         // descent is the CPU's twin), each over its probability.
-        let samples = 3;
-        let (g, _) = run(GatherKernel::BEAMS, r2, samples);
+        // `Lmm` draws its own number (`--media-light-samples`).
+        let (samples, media_samples) = (3, 5);
+        let (g, _) = run(GatherKernel::BEAMS, r2, samples, media_samples);
         let drawn = |kind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
         let cpu: [Vec<Rgb>; 4] = [
             per_drawn(
@@ -468,7 +471,7 @@ fn compare_gathers_chunked(
                 segs,
                 &vbl_tree,
                 r,
-                samples,
+                media_samples,
                 m,
                 |seg| Receiver::along_segment(&ts.scene, seg),
                 GatherKind::VrlToMedia,
@@ -481,7 +484,7 @@ fn compare_gathers_chunked(
         ];
         for (slot, (k, cpu)) in GatherKernel::BEAMS.into_iter().zip(&cpu).enumerate() {
             check_kernel(
-                &format!("{name}, R = {r}, {samples} drawn lights"),
+                &format!("{name}, R = {r}, {samples} drawn lights ({media_samples} for Lmm)"),
                 k,
                 &g.results[k as usize],
                 cpu,
@@ -692,6 +695,8 @@ fn compare_renders(method: Method, scene: Scene) {
             light_paths_per_pass: 24,
             caustic_paths: 256,
             beam_paths: 64,
+            // `Lmm` draws its own number on both backends (`--media-light-samples`).
+            media_light_samples: Some(6),
             ..Default::default()
         },
         gpu,

@@ -333,6 +333,7 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             radius2: r2,
             vbl: settings,
             light_samples: 0,
+            media_light_samples: 0,
             vsl_tree: &[],
             vbl_tree: &[],
         };

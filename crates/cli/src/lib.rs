@@ -172,6 +172,11 @@ struct RenderArgs {
     /// tree (1–1024), or `all` to gather every light of the pass (the all-pairs estimator).
     #[arg(long, default_value = "4", value_name = "N|all", value_parser = parse_light_samples)]
     light_samples: LightSamples,
+    /// `vbl`: virtual beam lights each camera media segment draws for `Lmm` (1–1024; default:
+    /// as `--light-samples`). More can pay in homogeneous glossy fog, where `Lmm`'s draws are
+    /// the noisiest (see docs/rendering.md)
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+    media_light_samples: Option<u32>,
     /// Many-light methods: camera samples per pixel per pass for direct light (its own pixel
     /// jitter and next-event estimate each; the gathers use one).
     #[arg(long, default_value_t = many_lights::DEFAULT_DIRECT_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=4096))]
@@ -405,6 +410,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         many_lights: ManyLightSettings {
             light_paths_per_pass: args.light_paths,
             light_samples: args.light_samples.0,
+            media_light_samples: args.media_light_samples,
             direct_samples: args.direct_samples,
             caustic_paths: args.caustic_paths,
             beam_paths: args.beam_paths,

@@ -117,6 +117,7 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
         radius2,
         vbl,
         light_samples: 0,
+        media_light_samples: 0,
         vsl_tree: &[],
         vbl_tree: &[],
     };
@@ -198,6 +199,7 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
     let vbl_tree = LightTree::over_vbls(&ts.scene, all.vrls);
     let inputs = GatherInputs {
         light_samples: samples,
+        media_light_samples: samples,
         vsl_tree: &vsl_tree.nodes,
         vbl_tree: &vbl_tree.nodes,
         ..*all

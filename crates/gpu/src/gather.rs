@@ -154,6 +154,8 @@ pub struct GatherInputs<'a> {
     /// Lights each record draws per kernel from the trees below (`vbl` kernels); 0 gathers
     /// every light.
     pub light_samples: u32,
+    /// The same for the VBL → camera segment gather (`Lmm`), which may draw more.
+    pub media_light_samples: u32,
     /// The pass's light trees over `vpls` and `vrls` (empty without light selection).
     pub vsl_tree: &'a [LightTreeNode],
     pub vbl_tree: &'a [LightTreeNode],
@@ -325,8 +327,13 @@ impl Gathers {
         let mut timed = Vec::new();
         for k in GatherKernel::ALL.into_iter().filter(|&k| wanted(k)) {
             let (records, lights) = (inputs.records(k), inputs.lights(k));
-            let drawn = inputs.light_samples > 0 && GatherKernel::BEAMS.contains(&k);
-            let chunk = self.records_per_dispatch(gpu, if drawn { inputs.light_samples as usize } else { lights });
+            let samples = if k == GatherKernel::VblMedia {
+                inputs.media_light_samples
+            } else {
+                inputs.light_samples
+            };
+            let drawn = samples > 0 && GatherKernel::BEAMS.contains(&k);
+            let chunk = self.records_per_dispatch(gpu, if drawn { samples as usize } else { lights });
             let out = compute::output_unbound::<[f32; 4]>(gpu, "gathered", records)?;
             let kernel = self.kernels[k as usize].as_ref().expect("wanted kernels exist");
             // All of one kernel's dispatches go into one timed compute pass.
@@ -356,7 +363,7 @@ impl Gathers {
                         AngularPdf::Vrl => ANGULAR_PDF_VRL,
                     },
                     record_offset: first as u32,
-                    light_samples: inputs.light_samples,
+                    light_samples: samples,
                     vsl_tree_nodes: inputs.vsl_tree.len() as u32,
                     vbl_tree_nodes: inputs.vbl_tree.len() as u32,
                 };
