@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use beamlight_gpu::{Gpu, GpuBackend, gather::GatherKernel};
 use beamlight_render::{
     Budget, Film, Method, RenderOptions,
-    auto::AutoReport,
+    auto::{AutoReport, AutoSums},
     compare,
     components::{Component, SceneFeatures},
     many_lights::{self, ManyLightSettings, PassTimes, VirtualLights},
@@ -458,12 +458,12 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         .or_else(|| range_start.map(|_| runs::default_accum_path(&args.output)));
     let accum_first = resumed.as_ref().map_or(opts.first_pass, |a| a.first_pass);
     let accumulators =
-        |film: &Film, components: &[Film], auto: Option<&AutoReport>| beamlight_render::accum::Accumulators {
+        |film: &Film, components: &[Film], auto: Option<&AutoSums>| beamlight_render::accum::Accumulators {
             fingerprint: fingerprint.clone(),
             first_pass: accum_first,
             film: film.clone(),
             components: components.to_vec(),
-            auto: auto.and_then(|r| r.sums.clone()),
+            auto: auto.cloned(),
         };
     runs::catch_interrupts();
     let startup = start.elapsed();
@@ -506,7 +506,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             && last_checkpoint.elapsed().as_secs_f64() >= checkpoint_every
             && write_error.is_none()
         {
-            write_error = accumulators(p.film, p.components, p.auto)
+            write_error = accumulators(p.film, p.components, p.auto_sums)
                 .write(path)
                 .err()
                 .map(anyhow::Error::from);
@@ -529,7 +529,8 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         result.elapsed,
     )?;
     if let Some(path) = &accum_path {
-        accumulators(&result.film, &result.components, result.auto.as_ref()).write(path)?;
+        let sums = result.auto.as_ref().and_then(|r| r.sums.as_ref());
+        accumulators(&result.film, &result.components, sums).write(path)?;
     }
     let secs = result.elapsed.as_secs_f64();
     if result.film.rejected > 0 {

@@ -78,13 +78,14 @@ pub struct AutoReport {
     /// a pass, tracing, is shared).
     pub vbl_seconds: f64,
     pub vbl_component_seconds: [f64; N],
-    /// `vbl`'s weight per component, averaged over the image's pixels (0: all `pt`).
+    /// `vbl`'s weight per component, one for the whole image (0: all `pt`).
     pub vbl_weight: [f64; N],
     /// Components the scene can produce.
     pub needed: [bool; N],
     /// Components only `vbl` can estimate (see the module documentation).
     pub vbl_only: [bool; N],
-    /// The running sums so far (for checkpoints and pass ranges).
+    /// The render's running sums, for its accumulators (set in the finished render's
+    /// report; during the render [`Progress::auto_sums`] lends them).
     pub sums: Option<AutoSums>,
 }
 
@@ -559,7 +560,6 @@ pub fn render(
             combined.combine(&est, &report, passes_before + steps);
             last_combined = Instant::now();
         }
-        report.sums = Some(est.clone());
         let go_on = on_pass(&Progress {
             passes: steps,
             total,
@@ -568,15 +568,16 @@ pub fn render(
             elapsed: started.elapsed(),
             discarded,
             auto: Some(&report),
+            auto_sums: Some(&est),
         });
         if !go_on {
             break;
         }
     }
     combined.combine(&est, &report, passes_before + steps);
-    report.sums = Some(est.clone());
     // Samples the films dropped as non-finite: a bug if ever non-zero, reported with the image.
     combined.film.rejected = est.pt.iter().chain(&est.vbl).map(|f| f.rejected).sum();
+    report.sums = Some(est);
     Ok(RenderResult {
         film: combined.film,
         components: if opts.components {

@@ -92,7 +92,6 @@ pub struct ManyLightSettings {
 
 /// Lights a gather record draws per component by default (`--light-samples`).
 pub const DEFAULT_LIGHT_SAMPLES: u32 = 4;
-
 /// Camera samples per pixel per pass for direct light by default (`--direct-samples`).
 pub const DEFAULT_DIRECT_SAMPLES: u32 = 4;
 /// Light paths per pass for the surface caustics by default (`--caustic-paths`): at
@@ -341,23 +340,14 @@ pub fn start_pass(
         }
     };
     let on = |c: Component| settings.components[c as usize];
+    // A caustic component the pass does not compute traces no light paths.
+    let paths_for = |c: Component, paths: u32| if on(c) { paths } else { 0 };
     let (photon_lights, beam_lights) = (
         caustic_set(
-            if on(Component::CausticSurface) {
-                settings.caustic_paths
-            } else {
-                0
-            },
+            paths_for(Component::CausticSurface, settings.caustic_paths),
             0x1656_67b1,
         ),
-        caustic_set(
-            if on(Component::CausticVolume) {
-                settings.beam_paths
-            } else {
-                0
-            },
-            0x3c6e_f372,
-        ),
+        caustic_set(paths_for(Component::CausticVolume, settings.beam_paths), 0x3c6e_f372),
     );
     let (m_photons, m_beams) = (photon_lights.paths.max(1) as f32, beam_lights.paths.max(1) as f32);
     let photon_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, settings.caustic_paths, pass);

@@ -115,8 +115,10 @@ pub struct Progress<'a> {
     pub elapsed: Duration,
     /// Estimates discarded so far, per component ([`PassTimes::discarded`]).
     pub discarded: [u64; Component::ALL.len()],
-    /// `--method auto`: where each component's estimate came from so far.
+    /// `--method auto`: where each component's estimate came from so far, and the running
+    /// sums behind it (for checkpoints).
     pub auto: Option<&'a crate::auto::AutoReport>,
+    pub auto_sums: Option<&'a crate::auto::AutoSums>,
 }
 
 /// Renders until the budget is spent, calling `on_pass` after each pass; when it returns
@@ -303,6 +305,7 @@ pub fn render_from(
             elapsed: started.elapsed(),
             discarded: discarded_so_far,
             auto: None,
+            auto_sums: None,
         });
         if !go_on {
             // A pass still in flight is dropped unfinished.
