@@ -361,23 +361,11 @@ fn bad_command_lines_are_refused() {
 #[test]
 fn auto_reports_its_schedule() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = root().join("assets/scenes/cornell_fog.toml");
     let out = dir.path().join("a.exr");
-    let o = beamlight(&[
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--method",
-        "auto",
-        "--time",
-        "1",
-        "--width",
-        "16",
-        "--height",
-        "16",
-        "--stats",
-    ]);
+    let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(small_render_by("auto", &out, &["--time", "1", "--stats"]))
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("auto, per component"), "{}", stderr(&o));
     let (img, meta) = read_exr(&out).unwrap();
