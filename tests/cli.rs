@@ -493,6 +493,26 @@ fn a_scene_without_lights_is_reported() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("no light sources"), "{}", stderr(&o));
+    // `auto` with a time budget has nothing to measure there: it must still end (it once
+    // sized its `pt` slices by an unmeasured cost of 0 s per sample and never did).
+    let out = dir.path().join("a.exr");
+    let o = beamlight(&[
+        "render",
+        gltf.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        "auto",
+        "--time",
+        "0.5",
+        "--width",
+        "4",
+        "--height",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (img, _) = read_exr(&out).unwrap();
+    assert!(img.pixels.iter().all(|p| *p == beamlight_scene::Rgb::ZERO));
 }
 
 #[test]

@@ -479,11 +479,18 @@ pub fn render(
                 let left = limit.saturating_sub(opts.start.elapsed()).as_secs_f64();
                 match next_step(&est, &costs, &combined, limit, left) {
                     Some(step) if steps == 0 || step_seconds(step, &costs) <= left => vec![step],
-                    // What is left fits only a shorter `pt` slice, if anything.
-                    _ => match (left / costs.per_spp().max(1e-9)).floor() as u32 {
-                        0 => break,
-                        k => vec![Step::Pt(k)],
-                    },
+                    // What is left fits only a shorter `pt` slice, if anything; with no
+                    // measured cost (nothing to render: a scene without light), one sample.
+                    _ => {
+                        let k = match costs.pt_spp {
+                            0 => u32::from(steps == 0),
+                            _ => (left / costs.per_spp().max(1e-9)).floor().min(u32::MAX as f64) as u32,
+                        };
+                        if k == 0 {
+                            break;
+                        }
+                        vec![Step::Pt(k)]
+                    }
                 }
             }
         };
