@@ -43,6 +43,7 @@
 use crate::{
     Film, Image,
     components::SceneFeatures,
+    film::mean_and_variance,
     many_lights::{self, ManyLightSettings, PassTimes},
     progressive::{Budget, Progress, RenderOptions, RenderResult, path_trace_pass},
 };
@@ -281,43 +282,7 @@ impl PassMeans {
 
     /// Variance of the mean over the passes so far (0 with fewer than two).
     fn variance_of_mean(&self) -> f64 {
-        if self.n < 2.0 {
-            return 0.0;
-        }
-        let mean = self.sum / self.n;
-        ((self.sum_sq / self.n - mean * mean) * self.n / (self.n - 1.0)).max(0.0) / self.n
-    }
-}
-
-/// A film's per-entry (pixel and channel) mean and variance of the mean, read from its sums
-/// without building images (the schedule reads them after every step).
-struct Entries<'a> {
-    sum: &'a [[f64; 3]],
-    sum_sq: &'a [[f64; 3]],
-    n: f64,
-}
-
-impl<'a> Entries<'a> {
-    fn of(film: &'a Film) -> Self {
-        let (sum, sum_sq) = film.sums();
-        Self {
-            sum,
-            sum_sq,
-            n: film.samples as f64,
-        }
-    }
-
-    /// (mean, variance of the mean) as [`Film::image`] and [`Film::variance_of_mean`] give them.
-    fn get(&self, i: usize, c: usize) -> (f64, f64) {
-        if self.n < 1.0 {
-            return (0.0, 0.0);
-        }
-        let mean = self.sum[i][c] / self.n;
-        if self.n < 2.0 {
-            return (mean, 0.0);
-        }
-        let var = ((self.sum_sq[i][c] / self.n - mean * mean) * self.n / (self.n - 1.0)).max(0.0) / self.n;
-        (mean, var)
+        mean_and_variance(self.n, self.sum, self.sum_sq).1
     }
 }
 
@@ -335,14 +300,13 @@ impl ComponentError {
     /// `pt` from `n_pt` samples and `vbl` from `pass_means`-tracked passes, over an image whose
     /// entries have relative-error weights `relative`.
     fn of(pt: &Film, vbl: &Film, vbl_means: &PassMeans, pt_means: &PassMeans, relative: &[Rgb]) -> Self {
-        let (pt_entries, vbl_entries) = (Entries::of(pt), Entries::of(vbl));
         let mut e = ComponentError::default();
         let (mut diff, mut level, mut level_weighted) = (0f64, 0f64, 0f64);
         for (i, r) in relative.iter().enumerate() {
             for c in 0..3 {
                 let r = r[c] as f64;
-                let (m, v) = pt_entries.get(i, c);
-                let (mv, vv) = vbl_entries.get(i, c);
+                let (m, v) = pt.entry(i, c);
+                let (mv, vv) = vbl.entry(i, c);
                 e.pt += v * r;
                 e.vbl += vv * r;
                 diff += mv - m;
@@ -622,18 +586,18 @@ impl Combined {
         let (needed, vbl_only) = (&est.needed, &est.vbl_only);
         // Each pixel's relative-error weight, from the current beauty estimate (pt's where
         // there is one: it is unbiased).
-        let entries: Vec<Entries> = (0..N)
+        let sources: Vec<&Film> = (0..N)
             .map(|k| {
-                Entries::of(if est.pt[k].samples > 0 && !vbl_only[k] {
+                if est.pt[k].samples > 0 && !vbl_only[k] {
                     &est.pt[k]
                 } else {
                     &est.vbl[k]
-                })
+                }
             })
             .collect();
         let relative: Vec<Rgb> = (0..self.film.width as usize * self.film.height as usize)
             .map(|i| {
-                let b = |c: usize| entries.iter().map(|e| e.get(i, c).0).sum::<f64>() as f32;
+                let b = |c: usize| sources.iter().map(|f| f.entry(i, c).0).sum::<f64>() as f32;
                 let b = Rgb::new(b(0), b(1), b(2));
                 Rgb::ONE / (b * b + Rgb::splat(0.01))
             })

@@ -51,6 +51,19 @@ impl Image {
     }
 }
 
+/// The mean of `n` samples with sum `sum` and sum of squares `sum_sq`, and the estimated
+/// variance of that mean (the sample variance over n; 0 with fewer than two samples).
+pub fn mean_and_variance(n: f64, sum: f64, sum_sq: f64) -> (f64, f64) {
+    if n < 1.0 {
+        return (0.0, 0.0);
+    }
+    let mean = sum / n;
+    if n < 2.0 {
+        return (mean, 0.0);
+    }
+    (mean, ((sum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0) / n)
+}
+
 /// Per-pixel running sums of samples (and of their squares, for variance estimates), in f64 so
 /// that millions of samples can be added without losing the small ones.
 #[derive(Clone, Debug)]
@@ -183,21 +196,16 @@ impl Film {
         }
     }
 
+    /// Pixel `i`'s channel `c`: its mean and the variance of that mean ([`mean_and_variance`]).
+    pub fn entry(&self, i: usize, c: usize) -> (f64, f64) {
+        mean_and_variance(self.samples as f64, self.sum[i][c], self.sum_sq[i][c])
+    }
+
     /// Estimated variance of each pixel's mean (sample variance / n).
     pub fn variance_of_mean(&self) -> Image {
-        let n = self.samples as f64;
-        let pixels = self
-            .sum
-            .iter()
-            .zip(&self.sum_sq)
-            .map(|(s, s2)| {
-                let v = |c: usize| {
-                    if n < 2.0 {
-                        return 0.0;
-                    }
-                    let mean = s[c] / n;
-                    (((s2[c] / n - mean * mean) * n / (n - 1.0)).max(0.0) / n) as f32
-                };
+        let pixels = (0..self.sum.len())
+            .map(|i| {
+                let v = |c: usize| self.entry(i, c).1 as f32;
                 Rgb::new(v(0), v(1), v(2))
             })
             .collect();

@@ -436,7 +436,6 @@ pub fn start_pass(
     // Caustics keep one stream per record; each (record, virtual light) pair has its own
     // ([`streams`]), which the GPU kernels draw from too.
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x7f4a_7c15, pass, (i as u32).wrapping_mul(2) + kind);
-    let pair = |kind: GatherKind, i: usize, j: usize| streams::pair_sampler(pair_seed, pass, kind, i as u32, j as u32);
     let on_cpu = pending.is_none();
     let computed = settings.components;
 
@@ -462,41 +461,31 @@ pub fn start_pass(
                 );
             }
             if on_cpu {
-                let rx = selection.as_ref().map(|_| Receiver::at_point(&ts.scene, sp));
+                let rx = selection.as_ref().map(|sel| (sel, Receiver::at_point(&ts.scene, sp)));
                 let (lss, lsm) = (Component::Lss as usize, Component::Lsm as usize);
                 if want(Component::Lss) {
-                    let kind = GatherKind::VplToSurface;
-                    let v = match (&selection, &rx) {
-                        (Some(sel), Some(rx)) => {
-                            sel.timed_estimate(&mut t[lss], &mut dp[lss], &sel.vsls, rx, kind, i, |j, s| {
-                                vbl::vsl_to_surface(ts, sp, &lights.vpls[j], r2, vbl, s)
-                            })
+                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vsls, rx));
+                    let kind = (GatherKind::VplToSurface, i, pair_seed, pass);
+                    let v = gather_lights(drawn, (&mut t[lss], &mut dp[lss]), &lights.vpls, kind, |v, s| {
+                        if beams_on {
+                            vbl::vsl_to_surface(ts, sp, v, r2, vbl, s)
+                        } else {
+                            vpl::vpl_to_surface(ts, sp, v, clamp, s)
                         }
-                        _ if beams_on => timed_sum(&mut t[lss], &mut dp[lss], &lights.vpls, |j, v| {
-                            vbl::vsl_to_surface(ts, sp, v, r2, vbl, &mut pair(kind, i, j))
-                        }),
-                        _ => timed_sum(&mut t[lss], &mut dp[lss], &lights.vpls, |j, v| {
-                            vpl::vpl_to_surface(ts, sp, v, clamp, &mut pair(kind, i, j))
-                        }),
-                    };
+                    });
                     let k = credited(Component::Lss, credit) as usize;
                     c[k] += admit(v / m, &mut dp[k]);
                 }
                 if want(Component::Lsm) {
-                    let kind = GatherKind::VrlToSurface;
-                    let v = match (&selection, &rx) {
-                        (Some(sel), Some(rx)) => {
-                            sel.timed_estimate(&mut t[lsm], &mut dp[lsm], &sel.vbls, rx, kind, i, |j, s| {
-                                vbl::vbl_to_surface(ts, sp, &lights.vrls[j], r2, vbl, s)
-                            })
+                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vbls, rx));
+                    let kind = (GatherKind::VrlToSurface, i, pair_seed, pass);
+                    let v = gather_lights(drawn, (&mut t[lsm], &mut dp[lsm]), &lights.vrls, kind, |v, s| {
+                        if beams_on {
+                            vbl::vbl_to_surface(ts, sp, v, r2, vbl, s)
+                        } else {
+                            vrl::vrl_to_surface(ts, sp, v, clamp, s)
                         }
-                        _ if beams_on => timed_sum(&mut t[lsm], &mut dp[lsm], &lights.vrls, |j, v| {
-                            vbl::vbl_to_surface(ts, sp, v, r2, vbl, &mut pair(kind, i, j))
-                        }),
-                        _ => timed_sum(&mut t[lsm], &mut dp[lsm], &lights.vrls, |j, v| {
-                            vrl::vrl_to_surface(ts, sp, v, clamp, &mut pair(kind, i, j))
-                        }),
-                    };
+                    });
                     let k = credited(Component::Lsm, credit) as usize;
                     c[k] += admit(v / m, &mut dp[k]);
                 }
@@ -528,41 +517,33 @@ pub fn start_pass(
                 );
             }
             if on_cpu && gathers_in_medium(ts.scene.media[seg.medium as usize].g) {
-                let rx = selection.as_ref().map(|_| Receiver::along_segment(&ts.scene, seg));
+                let rx = selection
+                    .as_ref()
+                    .map(|sel| (sel, Receiver::along_segment(&ts.scene, seg)));
                 let (lms, lmm) = (Component::Lms as usize, Component::Lmm as usize);
                 if want(Component::Lms) {
-                    let kind = GatherKind::VplToMedia;
-                    let v = match (&selection, &rx) {
-                        (Some(sel), Some(rx)) => {
-                            sel.timed_estimate(&mut t[lms], &mut dp[lms], &sel.vsls, rx, kind, i, |j, s| {
-                                vbl::vsl_to_media(ts, seg, &lights.vpls[j], r2, vbl, s)
-                            })
+                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vsls, rx));
+                    let kind = (GatherKind::VplToMedia, i, pair_seed, pass);
+                    let v = gather_lights(drawn, (&mut t[lms], &mut dp[lms]), &lights.vpls, kind, |v, s| {
+                        if beams_on {
+                            vbl::vsl_to_media(ts, seg, v, r2, vbl, s)
+                        } else {
+                            vpl::vpl_to_media(ts, seg, v, clamp, s)
                         }
-                        _ if beams_on => timed_sum(&mut t[lms], &mut dp[lms], &lights.vpls, |j, v| {
-                            vbl::vsl_to_media(ts, seg, v, r2, vbl, &mut pair(kind, i, j))
-                        }),
-                        _ => timed_sum(&mut t[lms], &mut dp[lms], &lights.vpls, |j, v| {
-                            vpl::vpl_to_media(ts, seg, v, clamp, &mut pair(kind, i, j))
-                        }),
-                    };
+                    });
                     let k = credited(Component::Lms, credit) as usize;
                     c[k] += admit(v / m, &mut dp[k]);
                 }
                 if want(Component::Lmm) {
-                    let kind = GatherKind::VrlToMedia;
-                    let v = match (&selection, &rx) {
-                        (Some(sel), Some(rx)) => {
-                            sel.timed_estimate(&mut t[lmm], &mut dp[lmm], &sel.vbls, rx, kind, i, |j, s| {
-                                vbl::vbl_to_media(ts, seg, &lights.vrls[j], r2, vbl, s)
-                            })
+                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vbls, rx));
+                    let kind = (GatherKind::VrlToMedia, i, pair_seed, pass);
+                    let v = gather_lights(drawn, (&mut t[lmm], &mut dp[lmm]), &lights.vrls, kind, |v, s| {
+                        if beams_on {
+                            vbl::vbl_to_media(ts, seg, v, r2, vbl, s)
+                        } else {
+                            vrl::vrl_to_media(ts, seg, v, clamp, s)
                         }
-                        _ if beams_on => timed_sum(&mut t[lmm], &mut dp[lmm], &lights.vrls, |j, v| {
-                            vbl::vbl_to_media(ts, seg, v, r2, vbl, &mut pair(kind, i, j))
-                        }),
-                        _ => timed_sum(&mut t[lmm], &mut dp[lmm], &lights.vrls, |j, v| {
-                            vrl::vrl_to_media(ts, seg, v, clamp, &mut pair(kind, i, j))
-                        }),
-                    };
+                    });
                     let k = credited(Component::Lmm, credit) as usize;
                     c[k] += admit(v / m, &mut dp[k]);
                 }
@@ -697,6 +678,31 @@ impl Selection {
                 },
             )
         })
+    }
+}
+
+/// One record's gather over a light set, before the division by the path count M: with light
+/// selection, the lights `drawn` from its tree for the record's receiver; without, every
+/// light, each with its pair's stream. `f(light, stream)` is a light's contribution; the
+/// gather's CPU time and discards go to `(seconds, discarded)`; `(kind, record, pair_seed,
+/// pass)` name the record's streams ([`streams`]).
+fn gather_lights<T>(
+    drawn: Option<(&Selection, &LightTree, &Receiver)>,
+    (seconds, discarded): (&mut f64, &mut u64),
+    lights: &[T],
+    (kind, record, pair_seed, pass): (GatherKind, usize, u32, u32),
+    f: impl Fn(&T, &mut Sampler) -> Rgb,
+) -> Rgb {
+    match drawn {
+        Some((sel, tree, rx)) => {
+            sel.timed_estimate(seconds, discarded, tree, rx, kind, record, |j, s| f(&lights[j], s))
+        }
+        None => timed_sum(seconds, discarded, lights, |j, v| {
+            f(
+                v,
+                &mut streams::pair_sampler(pair_seed, pass, kind, record as u32, j as u32),
+            )
+        }),
     }
 }
 
