@@ -49,6 +49,10 @@ fn pick_channel(pmf: Rgb, u: f32) -> usize {
 #[inline]
 pub fn homogeneous_transmittance(sigma_t: Rgb, t: f32) -> Rgb {
     let f = |s: f32| if s == 0.0 { 1.0 } else { (-s * t).exp() };
+    // Grey media (the common case) need one exponential, not three; the same bits.
+    if sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z {
+        return Rgb::splat(f(sigma_t.x));
+    }
     Rgb::new(f(sigma_t.x), f(sigma_t.y), f(sigma_t.z))
 }
 
