@@ -59,9 +59,9 @@ impl Triangle {
         0.5 * self.cross().length()
     }
 
-    /// Shading normal at barycentrics (b1, b2) (weights of p1 and p2); the geometric normal if none.
-    pub fn shading_normal(&self, b1: f32, b2: f32) -> Vec3 {
-        let ng = self.cross().normalize_or_zero();
+    /// Shading normal at barycentrics (b1, b2) (weights of p1 and p2); the geometric normal
+    /// `ng` (the caller's unit normal, so that a hit computes it once) if none.
+    pub fn shading_normal(&self, ng: Vec3, b1: f32, b2: f32) -> Vec3 {
         match self.n {
             Some(n) => {
                 let s = (n[0] * (1.0 - b1 - b2) + n[1] * b1 + n[2] * b2).normalize_or_zero();

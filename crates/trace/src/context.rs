@@ -73,7 +73,7 @@ impl TraceScene {
         let t = &self.scene.triangles[h.tri as usize];
         let p = t.p[0] * (1.0 - h.b1 - h.b2) + t.p[1] * h.b1 + t.p[2] * h.b2;
         let ng = t.cross().normalize();
-        let ns = t.shading_normal(h.b1, h.b2);
+        let ns = t.shading_normal(ng, h.b1, h.b2);
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
         SurfaceHit {
             p,

@@ -6,8 +6,26 @@ use glam::Vec3;
 
 #[derive(Clone, Copy, Debug)]
 enum LightRef {
+    /// Index into [`LightSampler::area`].
     Triangle(u32),
+    /// Index into the scene's punctual lights.
     Punctual(u32),
+}
+
+/// An emissive triangle with what next-event estimation needs from it, precomputed: a light
+/// sample reads this one record instead of the triangle and its material, and recomputes no
+/// normal or area (the same values, so the same bits as computing them on the spot).
+#[derive(Clone, Copy, Debug)]
+struct AreaLight {
+    /// Index into the scene's triangles.
+    tri: u32,
+    p: [Vec3; 3],
+    /// Unit geometric normal.
+    n: Vec3,
+    /// Density of a point drawn on it: selection pmf / area.
+    pdf: f32,
+    emission: Rgb,
+    double_sided: bool,
 }
 
 /// A sampled light point as seen from a reference point.
@@ -59,6 +77,7 @@ pub struct EmissionSample {
 
 pub struct LightSampler {
     lights: Vec<LightRef>,
+    area: Vec<AreaLight>,
     /// Bounding sphere of the scene (directional lights enter through its cross-section).
     center: Vec3,
     radius: f32,
@@ -79,11 +98,13 @@ impl LightSampler {
         let center = if finite { 0.5 * (lo + hi) } else { Vec3::ZERO };
         let mut lights = Vec::new();
         let mut power = Vec::new();
+        let mut emitters = Vec::new();
         for (i, t) in scene.triangles.iter().enumerate() {
             let m = &scene.materials[t.material as usize];
             if m.is_emissive() {
                 let sides = if m.double_sided { 2.0 } else { 1.0 };
-                lights.push(LightRef::Triangle(i as u32));
+                lights.push(LightRef::Triangle(emitters.len() as u32));
+                emitters.push(i as u32);
                 power.push(std::f32::consts::PI * luminance_mean(m.emission) * t.area() * sides);
             }
         }
@@ -93,13 +114,26 @@ impl LightSampler {
         }
         let select = sampling::Distribution1D::new(&power);
         let mut tri_pmf = vec![0.0; scene.triangles.len()];
+        let mut area = Vec::with_capacity(emitters.len());
         for (k, l) in lights.iter().enumerate() {
-            if let LightRef::Triangle(t) = l {
-                tri_pmf[*t as usize] = select.pmf(k);
+            if let LightRef::Triangle(a) = *l {
+                let tri = emitters[a as usize];
+                let t = &scene.triangles[tri as usize];
+                let m = &scene.materials[t.material as usize];
+                tri_pmf[tri as usize] = select.pmf(k);
+                area.push(AreaLight {
+                    tri,
+                    p: t.p,
+                    n: t.cross().normalize(),
+                    pdf: select.pmf(k) / t.area(),
+                    emission: m.emission,
+                    double_sided: m.double_sided,
+                });
             }
         }
         Self {
             lights,
+            area,
             center,
             radius,
             select,
@@ -128,14 +162,14 @@ impl LightSampler {
         }
         let (k, pmf) = self.select.sample(u_select);
         Some(match self.lights[k] {
-            LightRef::Triangle(ti) => {
-                let t = &scene.triangles[ti as usize];
+            LightRef::Triangle(a) => {
+                let t = &self.area[a as usize];
                 let b = sampling::uniform_triangle(u);
                 LightPoint {
                     p: t.p[0] * (1.0 - b.x - b.y) + t.p[1] * b.x + t.p[2] * b.y,
                     p_error: interpolation_error(&t.p, b.x, b.y),
-                    light: LightRef::Triangle(ti),
-                    pdf: pmf / t.area(),
+                    light: LightRef::Triangle(a),
+                    pdf: t.pdf,
                 }
             }
             LightRef::Punctual(li) => LightPoint {
@@ -151,10 +185,9 @@ impl LightSampler {
     /// arriving radiance over the solid-angle pdf. `None` when nothing arrives (back face).
     pub fn connect(&self, scene: &Scene, lp: &LightPoint, p: Vec3) -> Option<LightSample> {
         match lp.light {
-            LightRef::Triangle(ti) => {
-                let t = &scene.triangles[ti as usize];
-                let m = &scene.materials[t.material as usize];
-                let (q, n) = (lp.p, t.cross().normalize());
+            LightRef::Triangle(a) => {
+                let t = &self.area[a as usize];
+                let (q, n) = (lp.p, t.n);
                 let to = q - p;
                 let dist2 = to.length_squared();
                 let dist = dist2.sqrt();
@@ -163,7 +196,7 @@ impl LightSampler {
                 }
                 let wi = to / dist;
                 let cos_l = -n.dot(wi);
-                if cos_l <= 0.0 && !m.double_sided || cos_l == 0.0 {
+                if cos_l <= 0.0 && !t.double_sided || cos_l == 0.0 {
                     return None;
                 }
                 let pdf = lp.pdf * dist2 / cos_l.abs();
@@ -177,7 +210,7 @@ impl LightSampler {
                     wi,
                     dist,
                     target,
-                    contribution: m.emission / pdf,
+                    contribution: t.emission / pdf,
                     pdf,
                 })
             }
@@ -230,7 +263,8 @@ impl LightSampler {
         }
         let (k, pmf) = self.select.sample(u_select);
         let sample = match self.lights[k] {
-            LightRef::Triangle(ti) => {
+            LightRef::Triangle(a) => {
+                let ti = self.area[a as usize].tri;
                 let t = &scene.triangles[ti as usize];
                 let m = &scene.materials[t.material as usize];
                 let b = sampling::uniform_triangle(u_pos);
