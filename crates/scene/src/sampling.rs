@@ -165,7 +165,13 @@ impl Distribution1D {
         let u = if u >= 0.0 { u.min(ONE_MINUS_EPSILON) } else { 0.0 };
         // The largest i with cdf[i] ≤ u; then cdf[i] ≤ u < cdf[i + 1], so item i has a
         // non-empty interval, i.e. a positive weight.
-        let i = self.cdf.partition_point(|&c| c <= u) - 1;
+        let i = if self.cdf.len() <= 16 {
+            // The same index by counting, without the unpredictable branches of a binary
+            // search (a scene's handful of emissive triangles).
+            self.cdf.iter().filter(|&&c| c <= u).count() - 1
+        } else {
+            self.cdf.partition_point(|&c| c <= u) - 1
+        };
         let i = i.min(self.len() - 1);
         (i, self.pmf(i))
     }

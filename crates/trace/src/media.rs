@@ -89,6 +89,22 @@ pub fn sample_distance(m: &Medium, o: Vec3, d: Vec3, tmax: f32, throughput: Rgb,
 
 fn sample_homogeneous(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler) -> MediumEvent {
     let sigma_t = m.sigma_t();
+    if sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z {
+        // Grey extinction: every channel's distance pdf is the same, so the weights below
+        // reduce to the albedo on scattering and to 1 on passing (no exponential needed).
+        // The channel's random number is drawn all the same: the stream stays aligned.
+        let _ = s.next_1d();
+        let (st, u) = (sigma_t.x, s.next_1d());
+        let t = if st > 0.0 { -(1.0 - u).ln() / st } else { f32::INFINITY };
+        return if t < tmax {
+            MediumEvent::Scatter {
+                t,
+                weight: m.sigma_s / st,
+            }
+        } else {
+            MediumEvent::Pass { weight: Rgb::ONE }
+        };
+    }
     let pmf = channel_pmf(throughput);
     let c = pick_channel(pmf, s.next_1d());
     let u = s.next_1d();
