@@ -310,6 +310,14 @@ const PLANES: [[usize; 2]; 3] = {
     ]
 };
 
+/// Bytes from an axis's `child_min_*` to its `child_max_*` in a `CwBvhNode`.
+const PLANE_STEP: usize = 8;
+const _: () = assert!(
+    PLANES[0][1] == PLANES[0][0] + PLANE_STEP
+        && PLANES[1][1] == PLANES[1][0] + PLANE_STEP
+        && PLANES[2][1] == PLANES[2][0] + PLANE_STEP
+);
+
 /// A ray prepared for the node test: origin, clamped reciprocal direction, which quantized
 /// plane of each axis is the near one, and the query's end `hi`.
 struct NodeRay {
@@ -327,9 +335,11 @@ impl NodeRay {
         // A zero component becomes a tiny one of the same sign: slabs stay finite (no 0 · ∞).
         let inv = |c: f32| 1.0 / if c.abs() < 1e-20 { 1e-20f32.copysign(c) } else { c };
         // The near plane is the min plane where the direction is positive, the max one where not.
-        let d_axes = d.to_array();
-        let near: [usize; 3] = std::array::from_fn(|i| PLANES[i][(d_axes[i] < 0.0) as usize]);
-        let far: [usize; 3] = std::array::from_fn(|i| PLANES[i][(d_axes[i] >= 0.0) as usize]);
+        // Each axis's max plane follows its min plane by `PLANE_STEP` bytes (checked below), so
+        // the choice is arithmetic, not a table lookup per axis.
+        let neg = [d.x < 0.0, d.y < 0.0, d.z < 0.0].map(|n| n as usize * PLANE_STEP);
+        let near: [usize; 3] = std::array::from_fn(|i| PLANES[i][0] + neg[i]);
+        let far: [usize; 3] = std::array::from_fn(|i| PLANES[i][1] - neg[i]);
         Self {
             o: o.into(),
             inv: Vec3A::new(inv(d.x), inv(d.y), inv(d.z)),
