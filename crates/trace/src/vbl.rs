@@ -369,10 +369,20 @@ fn integrate_cone(
 ///   (`Lmm`) the discs at t > 0 are never cut by that plane, and the weight is 1.
 ///
 /// Where the ray leaves the medium through a wall, the discs are cut too, but the photons
-/// counted beyond the wall crossing (centre visibility) make up for it exactly at a plane wall,
-/// so only the cuts at the receiver's own end need a correction. Not corrected: a receiver in a
-/// medium within R of a wall (`Lmm`, `Lms` at the end of a camera segment), and a receiver
-/// within R of a second surface (a corner), where two cuts overlap and one is renormalised.
+/// counted beyond the wall crossing (centre visibility) make up for it at a plane wall, as
+/// long as the receiver is farther than the discs reach from it: a disc cut short before the
+/// crossing is mirrored by one beyond it that holds the missing photons. Next to the wall that
+/// mirror pairing breaks down (rays away from it lose their first discs, rays towards it gain
+/// discs beyond it with no loss to match), and the medium receivers at the end of every camera
+/// segment are next to the wall it ends on. For those (`Lmm`, `Lms`) the wall's plane is a
+/// third cut, `wall` (a point and the normal facing the receiver, from
+/// [`MediaSegment::end_normal`]), applied exactly as a boundary kernel: nothing is collected
+/// beyond it, and a disc it cuts in front of it is renormalised by its uncut fraction. That is
+/// exact at a plane wall for any receiver, so the mirror pairing is not needed there. Two cuts
+/// of one disc (the receiver's own and the wall's, for `Lms` from a VSL on a side wall) are
+/// renormalised by the product of the two fractions, exact when the two cut-off parts do not
+/// overlap. Not corrected: a receiver within R of a second surface that its ray does not end on
+/// (a corner seen from a wall, a camera ray grazing along a wall).
 #[derive(Clone, Copy, Debug)]
 struct Collection {
     origin: Vec3,
@@ -382,6 +392,9 @@ struct Collection {
     r: f32,
     /// Transmittance × visibility from `origin` to `centre` (the shadow ray's).
     transmittance: Rgb,
+    /// The plane of the wall a medium receiver's camera segment ends on: a point of it and its
+    /// normal, facing the receiver.
+    wall: Option<(Vec3, Vec3)>,
 }
 
 impl Collection {
@@ -406,8 +419,30 @@ impl Collection {
         };
         let d = to.length();
         let share = if d > 0.0 { t.max(0.0) / d } else { 1.0 };
-        transmittance_share(self.transmittance, share) * uncut_weight(height, reach)
+        let mut weight = uncut_weight(height, reach);
+        if let Some((point, normal)) = self.wall {
+            // The collection point's height over the wall and the ellipse's reach across it,
+            // multiplied by |ω'·m| as above: the point is origin + t ω'.
+            let wall_n = w.dot(normal);
+            let sign = if wm < 0.0 { -1.0 } else { 1.0 };
+            let height = ((self.origin - point).dot(normal) * wm + to.dot(m) * wall_n) * sign;
+            let reach = self.r * (normal * wm - m * wall_n).length();
+            // A sheet parallel to the wall (a VSL on the wall itself) is not cut by it.
+            if reach > 1e-4 * self.r * wm.abs() {
+                if height < 0.0 {
+                    return Rgb::ZERO;
+                }
+                weight *= uncut_weight(height, reach);
+            }
+        }
+        transmittance_share(self.transmittance, share) * weight
     }
+}
+
+/// [`Collection::wall`] for a receiver on camera segment `seg`.
+fn end_wall(seg: &MediaSegment) -> Option<(Vec3, Vec3)> {
+    let normal = Vec3::from(seg.end_normal);
+    (normal != Vec3::ZERO).then(|| (Vec3::from(seg.origin) + Vec3::from(seg.dir) * seg.length, normal))
 }
 
 /// T^share per channel (T ∈ [0, 1]; 0 stays 0, whatever the share). A NaN or negative T stays
@@ -686,6 +721,7 @@ pub fn vbl_to_surface(
         sheet: None,
         r: r2.sqrt(),
         transmittance: tr,
+        wall: None,
     };
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         rx.f_cos(w) * phase(w) * collection.weight(w)
@@ -766,6 +802,7 @@ pub fn vbl_to_media(
         sheet: None,
         r,
         transmittance: tr,
+        wall: end_wall(seg),
     };
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         collection.weight(w) * (phase_x(w) * phase_y(w))
@@ -835,6 +872,7 @@ pub fn vsl_to_media(
         sheet: Some(light.n),
         r: r2.sqrt(),
         transmittance: tr,
+        wall: end_wall(seg),
     };
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         light.f_cos(w) * phase(w) * collection.weight(w)
@@ -875,6 +913,7 @@ pub fn vsl_to_surface(
         sheet: Some(light.n),
         r: r2.sqrt(),
         transmittance: tr,
+        wall: None,
     };
     let l_vsl = integrate_cone(&cone, settings.directions, Some(lobe), rnd, |w| {
         rx.f_cos(w) * light.f_cos(w) * collection.weight(w)
@@ -985,6 +1024,8 @@ mod tests {
         sheet: Option<Vec3>,
         /// Where the cone is ambiguous (photon at the receiver): the receiver's normal or view.
         fallback: Vec3,
+        /// The wall a medium receiver's camera segment ends on (point, normal to the receiver).
+        wall: Option<(Vec3, Vec3)>,
         f: fn(Vec3) -> f32,
     }
 
@@ -1020,6 +1061,7 @@ mod tests {
                 sheet: case.sheet,
                 r,
                 transmittance: tr,
+                wall: case.wall,
             };
             let g = integrate_cone(&cone, 16, None, rnd, |w| {
                 let c = if corrected { collection.weight(w) } else { tr };
@@ -1061,6 +1103,7 @@ mod tests {
             plane: Some(Vec3::Z),
             sheet: Some(Vec3::X),
             fallback: Vec3::Z,
+            wall: None,
             f: |w| w.z.max(0.0) * FRAC_1_PI * (-w.x).max(0.0) * FRAC_1_PI,
         }
     }
@@ -1095,6 +1138,7 @@ mod tests {
                 plane: Some(Vec3::Z),
                 sheet: None,
                 fallback: Vec3::Z,
+                wall: None,
                 f: |w| w.z.max(0.0) * FRAC_1_PI * 0.25 * FRAC_1_PI,
             },
             BlurCase {
@@ -1112,6 +1156,31 @@ mod tests {
                 plane: None,
                 sheet: None,
                 fallback: Vec3::Z,
+                wall: None,
+                f: |_| 0.0625 * FRAC_1_PI * FRAC_1_PI,
+            },
+            BlurCase {
+                // Photons of density 1 filling z > 0 above a wall at z = 0 (the medium ends
+                // there), a medium point LIFT above it whose camera segment ends on that wall,
+                // isotropic phase functions at both ends: along each direction the light of the
+                // photons up to the wall, (1/16π²) ∫ (1 − e^(−t_wall)) dω' =
+                // (1/8π) (1 + ∫₀¹ (1 − e^(−LIFT/μ)) dμ).
+                name: "volume photons, medium receiver next to the wall its segment ends on (Lmm)",
+                exact: (1.0 + quadrature(|mu, _| 1.0 - (-(LIFT as f64) / mu).exp())) / (8.0 * std::f64::consts::PI),
+                photon: |u, lift| {
+                    // As above, about the receiver; none exist below the wall.
+                    let d = -(1.0 - u.x).ln();
+                    let w = sampling::uniform_sphere(Vec2::new(u.y, (u.x * 7919.0).fract()));
+                    let y = Vec3::new(0.0, 0.0, lift) + w * d;
+                    (y, if y.z > 0.0 { 4.0 * PI * d * d * d.exp() } else { 0.0 })
+                },
+                h: LIFT,
+                radii: &[0.35, 1.0],
+                receiver: Vec3::new(0.0, 0.0, LIFT),
+                plane: None,
+                sheet: None,
+                fallback: Vec3::Z,
+                wall: Some((Vec3::ZERO, Vec3::Z)),
                 f: |_| 0.0625 * FRAC_1_PI * FRAC_1_PI,
             },
             BlurCase {
@@ -1134,6 +1203,9 @@ mod tests {
                 plane: None,
                 sheet: Some(Vec3::Z),
                 fallback: -Vec3::Z,
+                // The receiver's camera segment ends on the photons' own wall, which cuts
+                // nothing of a sheet parallel to it.
+                wall: Some((Vec3::ZERO, Vec3::Z)),
                 f: |w| (-w.z).max(0.0) * FRAC_1_PI * 0.25 * FRAC_1_PI,
             },
             lss(0.5, &[0.35]),
