@@ -1026,6 +1026,10 @@ mod tests {
         fallback: Vec3,
         /// The wall a medium receiver's camera segment ends on (point, normal to the receiver).
         wall: Option<(Vec3, Vec3)>,
+        /// How much the corrected estimate may exceed `exact` (relative): 0 where the
+        /// correction is exact; for two cuts of one disc, renormalised by the product of their
+        /// fractions, the measured over-correction rounded up.
+        over: f64,
         f: fn(Vec3) -> f32,
     }
 
@@ -1104,6 +1108,7 @@ mod tests {
             sheet: Some(Vec3::X),
             fallback: Vec3::Z,
             wall: None,
+            over: 0.0,
             f: |w| w.z.max(0.0) * FRAC_1_PI * (-w.x).max(0.0) * FRAC_1_PI,
         }
     }
@@ -1113,9 +1118,11 @@ mod tests {
     /// uniform photons around a receiver must give the exact radiance within 4 standard errors
     /// (200 000 photons: about 0.3 %); the uncorrected estimate must miss it by 8 (which shows
     /// the check can fail). Covers: volume photons seen from a surface (`Lsm`'s geometry) and
-    /// from a medium point (`Lmm`), a lit wall seen from just above it (`Lms`), and a wall seen
-    /// from the floor near the corner (`Lss`). Not covered: receivers within R of
-    /// two surfaces (two cuts; see [`Collection`]).
+    /// from a medium point (`Lmm`), also just above the wall that point's camera segment ends
+    /// on, a lit wall seen from just above it (`Lms`), a wall seen from the floor near the
+    /// corner (`Lss`), and a side wall seen from a medium point near it and near its end wall
+    /// (`Lms`, two cuts of one disc: bounded, not exact). Not covered: a surface receiver within
+    /// R of a second surface, photons within R of their wall's edge (see [`Collection`]).
     #[test]
     fn the_blur_is_energy_preserving_at_any_radius() {
         use std::f32::consts::{FRAC_1_PI, PI};
@@ -1139,6 +1146,7 @@ mod tests {
                 sheet: None,
                 fallback: Vec3::Z,
                 wall: None,
+                over: 0.0,
                 f: |w| w.z.max(0.0) * FRAC_1_PI * 0.25 * FRAC_1_PI,
             },
             BlurCase {
@@ -1157,6 +1165,7 @@ mod tests {
                 sheet: None,
                 fallback: Vec3::Z,
                 wall: None,
+                over: 0.0,
                 f: |_| 0.0625 * FRAC_1_PI * FRAC_1_PI,
             },
             BlurCase {
@@ -1181,6 +1190,7 @@ mod tests {
                 sheet: None,
                 fallback: Vec3::Z,
                 wall: Some((Vec3::ZERO, Vec3::Z)),
+                over: 0.0,
                 f: |_| 0.0625 * FRAC_1_PI * FRAC_1_PI,
             },
             BlurCase {
@@ -1206,16 +1216,50 @@ mod tests {
                 // The receiver's camera segment ends on the photons' own wall, which cuts
                 // nothing of a sheet parallel to it.
                 wall: Some((Vec3::ZERO, Vec3::Z)),
+                over: 0.0,
                 f: |w| (-w.z).max(0.0) * FRAC_1_PI * 0.25 * FRAC_1_PI,
             },
             lss(0.5, &[0.35]),
             lss(1.2, &[1.0]),
+            BlurCase {
+                // Photons of density 1 on the wall x = 0 above the floor z = 0 (Lambert,
+                // radiance 1/π), a medium point 0.2 from the wall and LIFT above the floor its
+                // camera segment ends on, isotropic phase function: two cuts of one ellipse,
+                // (1/4π)(1/π) ∫ over directions to the wall above the floor of e^(−dist) dω'.
+                // Measured at R = 0.35: +3.1 % (the cut-off parts overlap near the corner, and
+                // the product of the fractions counts the overlap twice); without the end
+                // wall's cut −9.7 %, before issue 19 −21 %.
+                name: "surface photons on a side wall, medium receiver next to its end wall (Lms)",
+                exact: quadrature(|mu, f| {
+                    let phi = 2.0 * std::f64::consts::PI * f;
+                    let dist = 0.2 / mu;
+                    let z = LIFT as f64 + (1.0 - mu * mu).sqrt() * phi.sin() * dist;
+                    if z > 0.0 { (-dist).exp() } else { 0.0 }
+                }) / (2.0 * std::f64::consts::PI),
+                photon: |u, lift| {
+                    let mut w = sampling::uniform_sphere(u);
+                    w.x = -w.x.abs();
+                    let dist = 0.2 / -w.x;
+                    let q = Vec3::new(0.2, 0.0, lift) + w * dist;
+                    (q, if q.z > 0.0 { 2.0 * PI * dist * dist / -w.x } else { 0.0 })
+                },
+                h: LIFT,
+                radii: &[0.35],
+                receiver: Vec3::new(0.2, 0.0, LIFT),
+                plane: None,
+                sheet: Some(Vec3::X),
+                fallback: -Vec3::X,
+                wall: Some((Vec3::ZERO, Vec3::Z)),
+                over: 0.05,
+                f: |w| (-w.x).max(0.0) * FRAC_1_PI * 0.25 * FRAC_1_PI,
+            },
         ];
         for case in &cases {
             for &r in case.radii {
                 let (ours, se) = blur_estimate(case, r, 1.0, true);
                 let (before, se_before) = blur_estimate(case, r, 1.0, false);
-                let z = (ours - case.exact) / se;
+                // Below `exact`, or above it by more than the case's known over-correction.
+                let z = (ours - case.exact).min(0.0) / se + (ours - case.exact * (1.0 + case.over)).max(0.0) / se;
                 let z_before = (before - case.exact) / se_before;
                 eprintln!(
                     "{} R {r}: exact {:.6}, corrected {ours:.6} ± {se:.6} (z {z:.1}), uncorrected {before:.6} (z {z_before:.1})",
