@@ -375,13 +375,13 @@ fn integrate_cone(
 /// mirror pairing breaks down (rays away from it lose their first discs, rays towards it gain
 /// discs beyond it with no loss to match), and the medium receivers at the end of every camera
 /// segment are next to the wall it ends on. For those (`Lmm`, `Lms`) the wall's plane is a
-/// third cut, `wall` (a point and the normal facing the receiver, from
+/// further cut, `wall` (a point and the normal facing the receiver, from
 /// [`MediaSegment::end_normal`]), applied exactly as a boundary kernel: nothing is collected
 /// beyond it, and a disc it cuts in front of it is renormalised by its uncut fraction. That is
 /// exact at a plane wall for any receiver, so the mirror pairing is not needed there. Two cuts
 /// of one disc (the receiver's own and the wall's, for `Lms` from a VSL on a side wall) are
-/// renormalised by the product of the two fractions, exact when the two cut-off parts do not
-/// overlap. Not corrected: a receiver within R of a second surface that its ray does not end on
+/// renormalised by the product of the two fractions (a weight up to 4), exact when the two
+/// cut-off parts do not overlap. Not corrected: a receiver within R of a second surface that its ray does not end on
 /// (a corner seen from a wall, a camera ray grazing along a wall).
 #[derive(Clone, Copy, Debug)]
 struct Collection {
