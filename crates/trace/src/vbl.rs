@@ -381,8 +381,8 @@ fn integrate_cone(
 /// exact at a plane wall for any receiver, so the mirror pairing is not needed there. Two cuts
 /// of one disc (the receiver's own and the wall's, for `Lms` from a VSL on a side wall) are
 /// renormalised by the product of the two fractions (a weight up to 4), exact when the two
-/// cut-off parts do not overlap. Not corrected: a receiver within R of a second surface that its ray does not end on
-/// (a corner seen from a wall, a camera ray grazing along a wall).
+/// cut-off parts do not overlap. Not corrected: a receiver within R of a second surface that
+/// its ray does not end on (a corner seen from a wall, a camera ray grazing along a wall).
 #[derive(Clone, Copy, Debug)]
 struct Collection {
     origin: Vec3,
