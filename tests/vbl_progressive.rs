@@ -133,9 +133,9 @@ fn vbl_error_shrinks_as_passes_go_on() {
 /// uncorrected blur gave 1.87 at g = 0.5). Judged by 4 standard errors of the image mean (batch
 /// means), so a loss of about 1–3 % (printed per case) fails; and the grey furnace at
 /// g = ±0.999 with default settings, where all but the first scattering's light comes from the
-/// camera paths' walks through the sharp medium (`components`). Not checked here: the residual
-/// below 1 % near corners and wall edges (docs/rendering.md), which is within these errors;
-/// `tests/stress.rs` bounds it over many seeds.
+/// camera paths' walks through the sharp medium (`components`). Not checked: the residual of
+/// about 1 % at R0 measured with many seeds (receivers within R of the wall their camera ray
+/// ends on, and near corners; docs/rendering.md), which is within these errors.
 #[test]
 fn vbl_furnace_converges_to_two() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/furnace.toml");
