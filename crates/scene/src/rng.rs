@@ -44,6 +44,7 @@ impl Sampler {
         Self { key, dim: 0 }
     }
 
+    /// Next uniform number in [0, 1).
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let bits = pcg_hash(self.key ^ self.dim);
@@ -57,6 +58,7 @@ impl Sampler {
         glam::Vec2::new(x, self.next_1d())
     }
 
+    /// The dimension the next draw will use.
     pub fn dimension(&self) -> u32 {
         self.dim
     }
