@@ -98,14 +98,21 @@ impl LightSampler {
         let center = if finite { 0.5 * (lo + hi) } else { Vec3::ZERO };
         let mut lights = Vec::new();
         let mut power = Vec::new();
-        let mut emitters = Vec::new();
+        let mut area = Vec::new();
         for (i, t) in scene.triangles.iter().enumerate() {
             let m = &scene.materials[t.material as usize];
             if m.is_emissive() {
                 let sides = if m.double_sided { 2.0 } else { 1.0 };
-                lights.push(LightRef::Triangle(emitters.len() as u32));
-                emitters.push(i as u32);
+                lights.push(LightRef::Triangle(area.len() as u32));
                 power.push(std::f32::consts::PI * luminance_mean(m.emission) * t.area() * sides);
+                area.push(AreaLight {
+                    tri: i as u32,
+                    p: t.p,
+                    n: t.cross().normalize(),
+                    pdf: 0.0, // set below, once the selection pmf is known
+                    emission: m.emission,
+                    double_sided: m.double_sided,
+                });
             }
         }
         for (i, l) in scene.lights.iter().enumerate() {
@@ -113,23 +120,12 @@ impl LightSampler {
             power.push(l.power(radius));
         }
         let select = sampling::Distribution1D::new(&power);
+        // Emissive triangles come first in `lights`: area light `a` is selection entry `a`.
         let mut tri_pmf = vec![0.0; scene.triangles.len()];
-        let mut area = Vec::with_capacity(emitters.len());
-        for (k, l) in lights.iter().enumerate() {
-            if let LightRef::Triangle(a) = *l {
-                let tri = emitters[a as usize];
-                let t = &scene.triangles[tri as usize];
-                let m = &scene.materials[t.material as usize];
-                tri_pmf[tri as usize] = select.pmf(k);
-                area.push(AreaLight {
-                    tri,
-                    p: t.p,
-                    n: t.cross().normalize(),
-                    pdf: select.pmf(k) / t.area(),
-                    emission: m.emission,
-                    double_sided: m.double_sided,
-                });
-            }
+        for (a, light) in area.iter_mut().enumerate() {
+            let pmf = select.pmf(a);
+            tri_pmf[light.tri as usize] = pmf;
+            light.pdf = pmf / scene.triangles[light.tri as usize].area();
         }
         Self {
             lights,
