@@ -80,6 +80,7 @@ impl Bsdf {
     }
 
     /// f(wo, wi) without the cosine; zero for delta lobes.
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
             Bsdf::Lambert { albedo } => {
@@ -105,6 +106,7 @@ impl Bsdf {
     }
 
     /// Solid-angle pdf of `sample` producing `wi`; zero for delta lobes.
+    #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Bsdf::Lambert { .. } => {
@@ -131,6 +133,7 @@ impl Bsdf {
 
     /// Samples an incident direction; `u` for the direction, `u_lobe` to choose a lobe.
     /// Radiance transport (paths started at the camera); see [`Bsdf::sample_mode`].
+    #[inline]
     pub fn sample(&self, wo: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         self.sample_mode(wo, u, u_lobe, TransportMode::Radiance)
     }

@@ -82,6 +82,7 @@ pub fn hg_sample_cos_theta(g: f32, u: f32) -> (f32, f32) {
 }
 
 impl HenyeyGreenstein {
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
         // cos θ = −wo·wi, so 1 − cos θ = |wo + wi|²/2 and 1 + cos θ = |wo − wi|²/2 (unit
         // vectors): accurate even when wi ≈ ∓wo, where the dot product is not.
@@ -90,10 +91,12 @@ impl HenyeyGreenstein {
         hg_density(self.g, one_minus_cos, one_plus_cos)
     }
 
+    #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.eval(wo, wi)
     }
 
+    #[inline]
     pub fn sample(&self, wo: Vec3, u: Vec2) -> PhaseSample {
         let (one_minus_cos, one_plus_cos) = hg_sample_cos_theta(self.g, u.x);
         // Take cos θ from whichever of the two is small (and therefore accurate).

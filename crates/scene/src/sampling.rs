@@ -157,6 +157,7 @@ impl Distribution1D {
 
     /// Returns (index, probability of that index). Never returns an index with zero weight
     /// (unless `total` is 0, see the type's documentation).
+    #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {
         if !(self.total > 0.0) || self.is_empty() {
             return (0, 0.0);

@@ -49,6 +49,9 @@ pub struct Bvh {
     /// Per node, what its parent prefetches (see [`Ahead`]); empty, and nothing prefetched,
     /// when the nodes and triangles fit in the caches ([`PREFETCH_BYTES`]).
     ahead: Vec<Ahead>,
+    /// Whether the CPU runs the AVX2 traversal, detected once here: the detection's atomic
+    /// loads on every query cost about 1 % of a path tracer's time.
+    avx2: bool,
 }
 
 /// Where a node's own triangles (those of its leaf children) and its inner children lie, so
@@ -138,6 +141,7 @@ impl Bvh {
                 bvh: None,
                 leaves: Vec::new(),
                 ahead: Vec::new(),
+                avx2: avx2(),
             };
         }
         let prims = obvhs_triangles(&tris);
@@ -161,6 +165,7 @@ impl Bvh {
             bvh: Some(bvh),
             leaves,
             ahead,
+            avx2: avx2(),
         }
     }
 
@@ -171,7 +176,7 @@ impl Bvh {
     /// Closest hit with `t` in `(0, tmax)` along `o + t·d` (`d` unit length).
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
-        if avx2() {
+        if self.avx2 {
             // SAFETY: the CPU has the features `closest_hit_avx2` is compiled for.
             return unsafe { self.closest_hit_avx2(o, d, tmax) };
         }
@@ -181,7 +186,7 @@ impl Bvh {
     /// True when anything lies on `o + t·d` for `t` in `(0, tmax)`.
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if avx2() {
+        if self.avx2 {
             // SAFETY: the CPU has the features `occluded_avx2` is compiled for.
             return unsafe { self.occluded_avx2(o, d, tmax) };
         }
@@ -245,15 +250,19 @@ pub fn obvhs_triangles(tris: &[[Vec3; 3]]) -> Vec<ObvhsTriangle> {
 }
 
 /// Whether the CPU has what the eight-wide node test is compiled for (any x86-64 since 2013).
-#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn avx2() -> bool {
-    std::arch::is_x86_feature_detected!("avx2")
-        && std::arch::is_x86_feature_detected!("fma")
-        && std::arch::is_x86_feature_detected!("bmi1")
-        && std::arch::is_x86_feature_detected!("bmi2")
-        && std::arch::is_x86_feature_detected!("lzcnt")
-        && std::arch::is_x86_feature_detected!("popcnt")
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("popcnt")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// Prefetches the first and last byte of the `T` at `p` (all its lines when it spans at most

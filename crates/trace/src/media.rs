@@ -88,45 +88,89 @@ pub fn sample_distance(m: &Medium, o: Vec3, d: Vec3, tmax: f32, throughput: Rgb,
 }
 
 fn sample_homogeneous(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler) -> MediumEvent {
-    let sigma_t = m.sigma_t();
-    if sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z {
-        // Grey extinction: every channel's distance pdf is the same, so the weights below
-        // reduce to the albedo on scattering and to 1 on passing (no exponential needed).
-        // The channel's random number is drawn all the same: the stream stays aligned.
-        let _ = s.next_1d();
-        let (st, u) = (sigma_t.x, s.next_1d());
-        let t = if st > 0.0 { -(1.0 - u).ln() / st } else { f32::INFINITY };
-        return if t < tmax {
-            MediumEvent::Scatter {
-                t,
-                weight: m.sigma_s / st,
-            }
-        } else {
-            MediumEvent::Pass { weight: Rgb::ONE }
-        };
+    Flight::draw(m, throughput, s).event(m, tmax)
+}
+
+/// A collision distance drawn in a homogeneous medium before the ray is traced, so that the ray
+/// can be cut there: a surface beyond the collision never needs to be found (as in Mitsuba 3's
+/// `volpath`). [`Self::event`] with the nearest surface's distance gives exactly what
+/// [`sample_distance`] gives, from the same random numbers.
+#[derive(Clone, Copy, Debug)]
+pub struct Flight {
+    /// The collision distance (∞ when the chosen channel has no extinction).
+    pub t: f32,
+    /// The channel-selection pmf the distance was drawn with; `None` for grey extinction.
+    pmf: Option<Rgb>,
+}
+
+impl Flight {
+    /// The flight of a homogeneous medium; `None` for a density grid, whose tracking needs the
+    /// segment's end first.
+    pub fn sample(m: &Medium, throughput: Rgb, s: &mut Sampler) -> Option<Self> {
+        m.density.is_none().then(|| Self::draw(m, throughput, s))
     }
-    let pmf = channel_pmf(throughput);
-    let c = pick_channel(pmf, s.next_1d());
-    let u = s.next_1d();
-    let st = sigma_t[c];
-    // Inverse-CDF of the chosen channel's exponential; 1−u ∈ (0, 1] keeps the log finite.
-    let t = if st > 0.0 { -(1.0 - u).ln() / st } else { f32::INFINITY };
-    if t < tmax {
-        let tr = homogeneous_transmittance(sigma_t, t);
-        let pdf = (pmf * sigma_t * tr).element_sum();
-        if pdf > 0.0 && pdf.is_finite() {
-            return MediumEvent::Scatter {
-                t,
-                weight: m.sigma_s * tr / pdf,
+
+    fn draw(m: &Medium, throughput: Rgb, s: &mut Sampler) -> Self {
+        let sigma_t = m.sigma_t();
+        if sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z {
+            // Grey extinction: every channel's distance pdf is the same. The channel's random
+            // number is drawn all the same: the stream stays aligned with the chromatic case.
+            let _ = s.next_1d();
+            return Self {
+                t: exponential(sigma_t.x, s.next_1d()),
+                pmf: None,
             };
         }
-        // Underflow deep inside a very dense medium: nothing reaches here anyway.
-        return MediumEvent::Pass { weight: Rgb::ZERO };
+        let pmf = channel_pmf(throughput);
+        let c = pick_channel(pmf, s.next_1d());
+        Self {
+            t: exponential(sigma_t[c], s.next_1d()),
+            pmf: Some(pmf),
+        }
     }
-    let tr = homogeneous_transmittance(sigma_t, tmax);
-    let p_pass = (pmf * tr).element_sum();
-    let weight = if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO };
-    MediumEvent::Pass { weight }
+
+    /// What happens once the nearest surface along the ray is known to lie at `tmax` (∞: none):
+    /// a collision at `t` before it, or passing through to it.
+    pub fn event(self, m: &Medium, tmax: f32) -> MediumEvent {
+        let sigma_t = m.sigma_t();
+        let Some(pmf) = self.pmf else {
+            // Grey: the weights reduce to the albedo on scattering and to 1 on passing (no
+            // exponential needed).
+            return if self.t < tmax {
+                MediumEvent::Scatter {
+                    t: self.t,
+                    weight: m.sigma_s / sigma_t.x,
+                }
+            } else {
+                MediumEvent::Pass { weight: Rgb::ONE }
+            };
+        };
+        if self.t < tmax {
+            let tr = homogeneous_transmittance(sigma_t, self.t);
+            let pdf = (pmf * sigma_t * tr).element_sum();
+            if pdf > 0.0 && pdf.is_finite() {
+                return MediumEvent::Scatter {
+                    t: self.t,
+                    weight: m.sigma_s * tr / pdf,
+                };
+            }
+            // Underflow deep inside a very dense medium: nothing reaches here anyway.
+            return MediumEvent::Pass { weight: Rgb::ZERO };
+        }
+        let tr = homogeneous_transmittance(sigma_t, tmax);
+        let p_pass = (pmf * tr).element_sum();
+        let weight = if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO };
+        MediumEvent::Pass { weight }
+    }
+}
+
+/// Inverse-CDF sample of an exponential with rate `sigma`; 1−u ∈ (0, 1] keeps the log finite.
+fn exponential(sigma: f32, u: f32) -> f32 {
+    if sigma > 0.0 {
+        -(1.0 - u).ln() / sigma
+    } else {
+        f32::INFINITY
+    }
 }
 
 /// Transmittance estimate along `o + t·d`, `t ∈ (0, tmax)`: exact for homogeneous media,

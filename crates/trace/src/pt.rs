@@ -153,13 +153,20 @@ pub fn radiance_split(
     let mut crossings = 0u32;
 
     loop {
-        // Surface data is built only if the ray gets there (not when it scatters in a medium).
-        let hit = ts.bvh.closest_hit(o, d, f32::INFINITY);
+        // In a homogeneous medium the collision distance is drawn first and the ray cut there:
+        // a surface beyond the collision never needs to be found. Surface data is built only if
+        // the ray gets there.
+        let m = medium.map(|mi| &scene.media[mi as usize]);
+        let flight = m.and_then(|m| media::Flight::sample(m, beta, s));
+        let hit = ts.bvh.closest_hit(o, d, flight.map_or(f32::INFINITY, |f| f.t));
         let tmax = hit.map_or(f32::INFINITY, |h| h.t);
 
-        if let Some(mi) = medium {
-            let m = &scene.media[mi as usize];
-            match media::sample_distance(m, o, d, tmax, beta, s) {
+        if let Some(m) = m {
+            let event = match flight {
+                Some(f) => f.event(m, tmax),
+                None => media::sample_distance(m, o, d, tmax, beta, s),
+            };
+            match event {
                 MediumEvent::Scatter { t, weight } => {
                     beta *= weight;
                     depth += 1;
