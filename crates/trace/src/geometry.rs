@@ -240,14 +240,49 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3) -> Vec3 {
     let offset = n * d;
     let po = p + offset;
 
-    Vec3::new(away(po.x, offset.x), away(po.y, offset.y), away(po.z, offset.z))
+    away3(po, offset)
+}
+
+/// [`away`] on all three axes at once (SSE2 on x86-64: the per-axis selects cost 3 % of a path
+/// tracer's time, this a third of that).
+#[inline(always)]
+fn away3(x: Vec3, o: Vec3) -> Vec3 {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: SSE2 is part of x86-64.
+    unsafe {
+        use std::arch::x86_64::*;
+        let (xv, ov) = (_mm_setr_ps(x.x, x.y, x.z, 0.0), _mm_setr_ps(o.x, o.y, o.z, 0.0));
+        let (xi, oi) = (_mm_castps_si128(xv), _mm_castps_si128(ov));
+        let (one, sign, exponent) = (_mm_set1_epi32(1), _mm_set1_epi32(i32::MIN), _mm_set1_epi32(0x7f80_0000));
+        // One step of the bit pattern: up in magnitude where x and o share a sign, down where not.
+        let stepped = _mm_add_epi32(xi, _mm_or_si128(_mm_srai_epi32::<31>(_mm_xor_si128(xi, oi)), one));
+        // ±0 becomes the least subnormal of the offset's sign.
+        let zero = _mm_castps_si128(_mm_cmpeq_ps(xv, _mm_setzero_ps()));
+        let from_zero = _mm_or_si128(_mm_and_si128(oi, sign), one);
+        let stepped = _mm_or_si128(_mm_and_si128(zero, from_zero), _mm_andnot_si128(zero, stepped));
+        // No offset, or x not finite: x itself.
+        let keep = _mm_or_si128(
+            _mm_castps_si128(_mm_cmpeq_ps(ov, _mm_setzero_ps())),
+            _mm_cmpeq_epi32(_mm_and_si128(xi, exponent), exponent),
+        );
+        let mut r = [0f32; 4];
+        _mm_storeu_ps(
+            r.as_mut_ptr(),
+            _mm_castsi128_ps(_mm_or_si128(_mm_and_si128(keep, xi), _mm_andnot_si128(keep, stepped))),
+        );
+        Vec3::new(r[0], r[1], r[2])
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    Vec3::new(away(x.x, o.x), away(x.y, o.y), away(x.z, o.z))
 }
 
 /// `x.next_up()` where the offset `o` is positive, `x.next_down()` where it is negative, `x`
 /// where it is 0 (the same results for finite `x`), written as one step of the bit pattern so
 /// that it compiles to selects instead of branches, which the signs of the coordinates make
 /// unpredictable (4 % of a path tracer's time with `next_up`/`next_down`).
+/// On x86-64 it is only the reference that [`away3`] is tested against.
 #[inline(always)]
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
 fn away(x: f32, o: f32) -> f32 {
     let stepped = if x == 0.0 {
         if o > 0.0 { f32::from_bits(1) } else { -f32::from_bits(1) }
@@ -289,6 +324,29 @@ mod tests {
         for x in xs {
             for (o, expected) in [(0.5f32, x.next_up()), (-0.5, x.next_down()), (0.0, x)] {
                 assert_eq!(away(x, o).to_bits(), expected.to_bits(), "x = {x:e}, o = {o}");
+                // The three-axis form, with x and o in every lane position.
+                for lane in 0..3 {
+                    let mut xs3 = Vec3::splat(1.5);
+                    let mut os3 = Vec3::ZERO;
+                    xs3[lane] = x;
+                    os3[lane] = o;
+                    let got = away3(xs3, os3);
+                    assert_eq!(
+                        got[lane].to_bits(),
+                        expected.to_bits(),
+                        "away3: x = {x:e}, o = {o}, lane {lane}"
+                    );
+                    for other in (0..3).filter(|&k| k != lane) {
+                        assert_eq!(got[other], 1.5, "away3 must keep axes without an offset");
+                    }
+                }
+            }
+        }
+        // A coordinate that is not finite stays as it is, in both forms.
+        for x in [f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+            for o in [0.5f32, -0.5, 0.0] {
+                assert_eq!(away(x, o).to_bits(), x.to_bits());
+                assert_eq!(away3(Vec3::splat(x), Vec3::splat(o)).x.to_bits(), x.to_bits());
             }
         }
     }
