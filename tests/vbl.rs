@@ -440,12 +440,11 @@ fn vsl_to_media_is_bounded_where_the_vpl_is_singular() {
 /// averaged over 8 VRLs shifted along their line (so the PDF vertices fall at different places
 /// relative to the lobe), and the same for the VRL paper's vertex values. Both PDFs must agree on
 /// the mean (they estimate the same VBL integral).
-fn glossy_relative_variances(exponent: f32, r: f32, seed: u32) -> (f64, f64) {
+fn glossy_relative_variances(exponent: f32, r: f32, seed: u32, new: VblSettings) -> (f64, f64) {
     // The floor point sees the mirror direction (1, 1, 0) meet the VRL (along +z, 0.71 away)
     // at (0.3, 0.5, 0.3); HG g = 0.7.
     let ts = TraceScene::new(scene(phong(0.0, 0.8, exponent), 0.7));
     let sp = shading_point(Vec3::new(-0.2, 0.0, 0.3), Vec3::new(-1.0, 1.0, 0.0));
-    let new = VblSettings::default();
     let old = VblSettings {
         pdf: AngularPdf::Vrl,
         ..new
@@ -479,17 +478,33 @@ fn new_angular_pdf_has_lower_variance_on_a_glossy_floor() {
     // at the cone's axis) underestimate away from the peak, while the paper's (the lobe's
     // maximum within the cone) cover it. Likewise a narrower lobe (n = 1000) under an 8° cone.
     // Variances of 5000 bounded samples are good to a few percent: the margins are large.
-    let (a, b) = glossy_relative_variances(100.0, 0.2, 200);
-    assert!(a / b < 0.6, "n = 100, R = 0.2: new/old {}", a / b);
-    let (a, b) = glossy_relative_variances(100.0, 0.3, 220);
-    assert!(a / b < 0.3, "n = 100, R = 0.3: new/old {}", a / b);
-    let (a, b) = glossy_relative_variances(1000.0, 0.1, 240);
+    // The figures of the module documentation were measured with 16 PDF vertices and 16
+    // directions; the defaults are 8 and 4.
+    let fine = VblSettings {
+        pdf_vertices: 16,
+        directions: 16,
+        ..VblSettings::default()
+    };
+    let default = VblSettings::default();
+    for settings in [fine, default] {
+        let (a, b) = glossy_relative_variances(100.0, 0.2, 200, settings);
+        assert!(a / b < 0.6, "n = 100, R = 0.2: new/old {} with {settings:?}", a / b);
+        let (a, b) = glossy_relative_variances(100.0, 0.3, 220, settings);
+        assert!(a / b < 0.3, "n = 100, R = 0.3: new/old {} with {settings:?}", a / b);
+    }
+    // A lobe narrower than the default vertex spacing: 16 vertices resolve it (ratio 0.3 and
+    // below); with the default 8 the paper's rule still wins, by less (0.57 measured).
+    let (a, b) = glossy_relative_variances(1000.0, 0.1, 240, fine);
     assert!(a / b < 0.3, "n = 1000, R = 0.1: new/old {}", a / b);
+    let (a, b) = glossy_relative_variances(1000.0, 0.1, 240, default);
+    assert!(a / b < 0.7, "n = 1000, R = 0.1, default settings: new/old {}", a / b);
     // The other side, for the record: with a cone narrower than the lobe (4° against 6°) the
     // maximum rule overestimates the tails and costs variance; bounded, and it vanishes as
     // R → 0 where both rules become the same.
-    let (a, b) = glossy_relative_variances(100.0, 0.05, 260);
-    assert!(a / b < 4.0, "n = 100, R = 0.05: new/old {}", a / b);
+    for settings in [fine, default] {
+        let (a, b) = glossy_relative_variances(100.0, 0.05, 260, settings);
+        assert!(a / b < 4.0, "n = 100, R = 0.05: new/old {} with {settings:?}", a / b);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

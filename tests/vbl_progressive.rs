@@ -104,26 +104,37 @@ fn rel_rms(film: &Film, reference: &[DVec3]) -> f64 {
     (sum / reference.len() as f64).sqrt()
 }
 
+/// Four times the passes must lower the relative RMS error clearly (1/2 for variance alone;
+/// the blur's bias shrinks more slowly). Over three seeds: in a 6×6 image a single seed's
+/// error is set by a few heavy-tailed passes, and its ratio ranged from 0.54 to 0.76 with the
+/// settings of the time (0.45–0.85 with the current ones); pooled, 0.60 and 0.59.
 #[test]
 fn vbl_error_shrinks_as_passes_go_on() {
     let (w, h) = (6u32, 6u32);
     let ts = TraceScene::new(glossy_fog_box(w, h));
     let reference = render_pt(glossy_fog_box(w, h), 8192, 3, None).image();
     let reference: Vec<DVec3> = reference.pixels.iter().map(|p| p.as_dvec3()).collect();
-    let (p, mut at_p) = (12u64, f64::NAN);
-    let result = render(&ts, &options(Method::Vbl, w, h, 4 * p, 64, 5), |progress| {
-        if progress.passes == p {
-            at_p = rel_rms(progress.film, &reference);
-        }
-        true
-    })
-    .unwrap();
-    let at_4p = rel_rms(&result.film, &reference);
-    eprintln!(
-        "relative RMS error: {at_p:.4} after {p} passes, {at_4p:.4} after {}",
-        4 * p
-    );
-    assert!(at_4p < 0.7 * at_p, "error must shrink: {at_p} → {at_4p}");
+    let p = 12u64;
+    let (mut sq_p, mut sq_4p) = (0.0, 0.0);
+    for seed in [5, 6, 7] {
+        let mut at_p = f64::NAN;
+        let result = render(&ts, &options(Method::Vbl, w, h, 4 * p, 64, seed), |progress| {
+            if progress.passes == p {
+                at_p = rel_rms(progress.film, &reference);
+            }
+            true
+        })
+        .unwrap();
+        let at_4p = rel_rms(&result.film, &reference);
+        eprintln!(
+            "seed {seed}: relative RMS error {at_p:.4} after {p} passes, {at_4p:.4} after {}",
+            4 * p
+        );
+        sq_p += at_p * at_p;
+        sq_4p += at_4p * at_4p;
+    }
+    let (at_p, at_4p) = (sq_p.sqrt(), sq_4p.sqrt());
+    assert!(at_4p < 0.7 * at_p, "error must shrink: {at_p} → {at_4p} (over the seeds)");
 }
 
 /// The furnace (emitting, half-reflecting walls around a non-absorbing medium) renders 2.0

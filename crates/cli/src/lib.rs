@@ -13,7 +13,11 @@ use beamlight_render::{
     output,
 };
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
-use beamlight_trace::{TraceScene, pt::PathTracerSettings, vbl::VblSettings};
+use beamlight_trace::{
+    TraceScene,
+    pt::PathTracerSettings,
+    vbl::{self, VblSettings},
+};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::{
     io::IsTerminal,
@@ -170,7 +174,7 @@ struct RenderArgs {
     light_paths: u32,
     /// `vbl`: virtual lights each gather record draws per component from the pass's light
     /// tree (1–1024), or `all` to gather every light of the pass (the all-pairs estimator).
-    #[arg(long, default_value = "4", value_name = "N|all", value_parser = parse_light_samples)]
+    #[arg(long, default_value_t = LightSamples(Some(many_lights::DEFAULT_LIGHT_SAMPLES)), value_name = "N|all", value_parser = parse_light_samples)]
     light_samples: LightSamples,
     /// `vbl`: virtual beam lights each camera media segment draws for `Lmm` (1–1024; default:
     /// as `--light-samples`). More can pay in homogeneous glossy fog, where `Lmm`'s draws are
@@ -206,11 +210,11 @@ struct RenderArgs {
     write_every: Option<f64>,
     /// `vbl`: directions integrating each virtual spherical light's solid angle (paper eq. 9;
     /// the paper uses up to 100).
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(long, default_value_t = vbl::DEFAULT_DIRECTIONS, value_parser = clap::value_parser!(u32).range(1..=1024))]
     vsl_directions: u32,
     /// `vbl`: most vertices of the piecewise-linear angular PDFs (fewer for segments that
     /// subtend small angles).
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=64))]
+    #[arg(long, default_value_t = vbl::DEFAULT_PDF_VERTICES, value_parser = clap::value_parser!(u32).range(2..=64))]
     pdf_vertices: u32,
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
@@ -236,6 +240,15 @@ struct RenderArgs {
 /// `--light-samples`: a count, or `None` for all pairs.
 #[derive(Clone, Copy, Debug)]
 struct LightSamples(Option<u32>);
+
+impl std::fmt::Display for LightSamples {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self.0 {
+            Some(n) => write!(f, "{n}"),
+            None => write!(f, "all"),
+        }
+    }
+}
 
 fn parse_light_samples(s: &str) -> Result<LightSamples, String> {
     if s == "all" {
