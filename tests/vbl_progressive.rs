@@ -134,7 +134,10 @@ fn vbl_error_shrinks_as_passes_go_on() {
         sq_4p += at_4p * at_4p;
     }
     let (at_p, at_4p) = (sq_p.sqrt(), sq_4p.sqrt());
-    assert!(at_4p < 0.7 * at_p, "error must shrink: {at_p} → {at_4p} (over the seeds)");
+    assert!(
+        at_4p < 0.7 * at_p,
+        "error must shrink: {at_p} → {at_4p} (over the seeds)"
+    );
 }
 
 /// The furnace (emitting, half-reflecting walls around a non-absorbing medium) renders 2.0
