@@ -438,9 +438,10 @@ fn scene_scale_does_not_change_many_light_images() {
     for method in [Method::Vrl, Method::VrlClamped, Method::Vbl] {
         // 32 passes in the normal run: a rounding difference that flips one decision swaps one
         // heavy-tailed sample for another, which moved `vbl`'s mean over 8 passes by up to 2 %
-        // (seeds 5–8: +0.9, −0.2, −0.1, −1.7 % at scale 10⁻³ with 4 lights drawn, 16
-        // directions; +2.0, −0.2, −1.0, −0.9 % with 8 and 4), over 32 by at most 1 %. A scale
-        // bug (an absolute epsilon, a radius that does not scale) moves it by far more.
+        // (seeds 5–8: +0.9, −0.2, −0.1, −1.7 % at scale 10⁻³ with the defaults; +2.0, −0.2,
+        // −1.0, −0.9 % with 8 lights drawn and 4 directions), over 32 by at most 1 % (with
+        // those). A scale bug (an absolute epsilon, a radius that does not scale) moves it by
+        // far more.
         let mean = |ts: &TraceScene| {
             let r = render(ts, &options(method, w, passes * 16, None), |_| true).unwrap();
             assert_finite(method.name(), &r);

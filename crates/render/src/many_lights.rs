@@ -90,10 +90,9 @@ pub struct ManyLightSettings {
     pub components: [bool; N],
 }
 
-/// Lights a gather record draws per component by default (`--light-samples`): 8, with the
-/// cheaper pairs of [`beamlight_trace::vbl::DEFAULT_DIRECTIONS`], at the cost per pass that 4
-/// had with 16 directions and 16 PDF vertices, and lower error at equal time (README, flags).
-pub const DEFAULT_LIGHT_SAMPLES: u32 = 8;
+/// Lights a gather record draws per component by default (`--light-samples`; more draws with
+/// cheaper pairs did not pay everywhere, see [`beamlight_trace::vbl::DEFAULT_DIRECTIONS`]).
+pub const DEFAULT_LIGHT_SAMPLES: u32 = 4;
 /// Camera samples per pixel per pass for direct light by default (`--direct-samples`).
 pub const DEFAULT_DIRECT_SAMPLES: u32 = 4;
 /// Light paths per pass for the surface caustics by default (`--caustic-paths`): at

@@ -114,8 +114,7 @@ pub struct VblSettings {
     /// Vertices of the piecewise-linear angular PDFs (2 ..= 64; [`DEFAULT_PDF_VERTICES`]). With
     /// 8, a lobe narrower than the vertex spacing is caught or missed depending on where the
     /// vertices fall (variance ratios between the two rules swung from ×0.4 to ×1.3 with the
-    /// VRL's position alone), with 16 the results no longer depend on it; but per second of
-    /// rendering more drawn lights outweigh that (see [`DEFAULT_DIRECTIONS`]).
+    /// VRL's position alone), with 16 the results no longer depend on it.
     pub pdf_vertices: u32,
     /// Vertex values of the angular PDFs.
     pub pdf: AngularPdf,
@@ -125,15 +124,14 @@ pub struct VblSettings {
 }
 
 /// Directions per VSL integral by default (`--vsl-directions`), and the angular PDFs' most
-/// vertices (`--pdf-vertices`). Both only trade a pair's cost against its variance (each is
-/// unbiased at any count), and with light selection the time a pair saves buys more drawn
-/// lights, which lower the error more: in the glossy fog box (96², 8 s, two seeds, relMSE of
-/// the image against the bench's reference half) 16 / 16 with 4 lights drawn gave 3.2e-2 and
-/// 4.0e-2, 4 / 8 with 8 drawn 2.3e-2 and 2.1e-2 at the same passes per second (4 / 4: 2.1e-2
-/// both; 1 direction is too few: 2.4e-2 and 3.1e-2 with 32 drawn). 8 vertices, not 4, for
-/// glossy lobes narrower than the vertex spacing (see [`VblSettings::pdf_vertices`]).
-pub const DEFAULT_DIRECTIONS: u32 = 4;
-pub const DEFAULT_PDF_VERTICES: u32 = 8;
+/// vertices (`--pdf-vertices`). Both trade a pair's cost against its variance (each is
+/// unbiased at any count). Cheaper pairs with more drawn lights (4 / 8 with 8 lights drawn)
+/// were tried as defaults and kept out: in the bench (96², one run) the glossy fog box gained
+/// at 8–16 s (relMSE 2.38e-2 → 1.85e-2, 1.34e-2 → 1.10e-2) but not at 32 s (6.6e-3 both), and
+/// the smoke box lost at every budget (8 s 2.85e-2 → 4.30e-2, 16 s 1.64e-2 → 1.91e-2): its
+/// heterogeneous medium makes every pair dear, so twice the draws cost nearly twice the pass.
+pub const DEFAULT_DIRECTIONS: u32 = 16;
+pub const DEFAULT_PDF_VERTICES: u32 = 16;
 
 impl Default for VblSettings {
     fn default() -> Self {
