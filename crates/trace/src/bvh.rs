@@ -51,6 +51,7 @@ pub struct Bvh {
     ahead: Vec<Ahead>,
     /// Whether the CPU runs the AVX2 traversal, detected once here: the detection's atomic
     /// loads on every query cost about 1 % of a path tracer's time.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     avx2: bool,
 }
 

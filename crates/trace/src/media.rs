@@ -82,13 +82,9 @@ pub fn extent(m: &Medium, o: Vec3, tmax: f32) -> f32 {
 /// Samples the next real collision along `o + t·d`, `t ∈ (0, tmax)` (`tmax` may be ∞).
 pub fn sample_distance(m: &Medium, o: Vec3, d: Vec3, tmax: f32, throughput: Rgb, s: &mut Sampler) -> MediumEvent {
     match &m.density {
-        None => sample_homogeneous(m, tmax, throughput, s),
+        None => Flight::draw(m, throughput, s).event(m, tmax),
         Some(grid) => sample_grid(m, grid, o, d, tmax, throughput, s),
     }
-}
-
-fn sample_homogeneous(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler) -> MediumEvent {
-    Flight::draw(m, throughput, s).event(m, tmax)
 }
 
 /// A collision distance drawn in a homogeneous medium before the ray is traced, so that the ray
