@@ -360,12 +360,23 @@ pub fn pt_components(ts: &TraceScene, spp: u32, seed: u32) -> [DVec3; 7] {
 /// Image means of the path tracer's components over `spp` samples per pixel (a multiple of
 /// 16), with their standard errors from the means of 16 batches of passes.
 pub fn pt_components_with_errors(ts: &TraceScene, spp: u32, seed: u32) -> ([DVec3; 7], [DVec3; 7]) {
+    pt_components_with_errors_using(ts, &PathTracerSettings::default(), spp, seed)
+}
+
+/// [`pt_components_with_errors`] with the path tracer's `settings` (e.g. restricted to some
+/// components).
+pub fn pt_components_with_errors_using(
+    ts: &TraceScene,
+    settings: &PathTracerSettings,
+    spp: u32,
+    seed: u32,
+) -> ([DVec3; 7], [DVec3; 7]) {
     assert!(spp % 16 == 0, "spp must split into 16 batches");
     let mut batches = BatchMeans::default();
     let mut sum = [DVec3::ZERO; 7];
     for batch in 0..16 {
         let mut part = [DVec3::ZERO; 7];
-        pt_component_sums(ts, batch * spp / 16..(batch + 1) * spp / 16, seed, &mut part);
+        pt_component_sums(ts, settings, batch * spp / 16..(batch + 1) * spp / 16, seed, &mut part);
         for (s, p) in sum.iter_mut().zip(&part) {
             *s += *p;
         }
@@ -473,7 +484,13 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
     }
 }
 
-fn pt_component_sums(ts: &TraceScene, passes: std::ops::Range<u32>, seed: u32, sum: &mut [DVec3; 7]) {
+fn pt_component_sums(
+    ts: &TraceScene,
+    settings: &PathTracerSettings,
+    passes: std::ops::Range<u32>,
+    seed: u32,
+    sum: &mut [DVec3; 7],
+) {
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     for pass in passes {
         for y in 0..h {
@@ -484,7 +501,7 @@ fn pt_component_sums(ts: &TraceScene, passes: std::ops::Range<u32>, seed: u32, s
                 let d = ts.scene.camera.direction(film, w as f32 / h as f32);
                 pt::radiance_split(
                     ts,
-                    &PathTracerSettings::default(),
+                    settings,
                     ts.scene.camera.position(),
                     d,
                     ts.camera_medium,

@@ -18,13 +18,24 @@ pub struct PathTracerSettings {
     pub max_depth: Option<u32>,
     /// Scattering events before Russian roulette starts.
     pub rr_depth: u32,
+    /// The components estimated, by [`Component::ALL`] index (all by default). With some left
+    /// out, a path ends as soon as its class ([`Component`]'s decomposition) can no longer
+    /// reach a wanted one, light found for an unwanted one is not looked for, and in a
+    /// homogeneous medium a segment whose far surface could only feed unwanted components
+    /// collides for sure ([`media::forced_collision`]): e.g. for `Lmm` alone, every camera
+    /// ray scatters in the medium and so does the next segment. `--method auto` gives the path
+    /// tracer only the components it estimates better per second than `vbl`.
+    pub components: [bool; N],
 }
+
+const N: usize = Component::ALL.len();
 
 impl Default for PathTracerSettings {
     fn default() -> Self {
         Self {
             max_depth: None,
             rr_depth: 3,
+            components: [true; N],
         }
     }
 }
@@ -112,6 +123,43 @@ impl PathClass {
         }
     }
 
+    /// The components that light found from now on may belong to.
+    fn reachable(&self) -> [bool; N] {
+        let mut r = [false; N];
+        let mut add = |c: Component| r[c as usize] = true;
+        let caustic = |v: Vertex| match v {
+            Vertex::Surface => Component::CausticSurface,
+            Vertex::Medium => Component::CausticVolume,
+        };
+        match (self.v1, self.v2) {
+            (None, _) => r = [true; N],
+            (Some(v1), _) if self.specular_after_v1 => add(caustic(v1)),
+            (Some(v1), None) => {
+                add(Component::Direct);
+                add(caustic(v1));
+                let mut second = *self;
+                for v2 in [Vertex::Surface, Vertex::Medium] {
+                    second.v2 = Some(v2);
+                    add(second.component());
+                }
+            }
+            (Some(_), Some(_)) => add(self.component()),
+        }
+        r
+    }
+
+    /// Whether light found from now on can belong to a component in `wanted`.
+    fn can_reach(&self, wanted: &[bool; N]) -> bool {
+        self.reachable().iter().zip(wanted).any(|(&r, &w)| r && w)
+    }
+
+    /// Whether a path scattering at a (non-specular) surface next could still reach `wanted`.
+    fn surface_can_reach(&self, wanted: &[bool; N]) -> bool {
+        let mut next = *self;
+        next.scatter(Vertex::Surface);
+        next.can_reach(wanted)
+    }
+
     /// The component that light found now (by next-event estimation at the current vertex or
     /// by hitting an emitter) belongs to.
     fn component(&self) -> Component {
@@ -151,20 +199,36 @@ pub fn radiance_split(
     let mut prev_pdf = 0.0f32;
     let mut specular = true;
     let mut crossings = 0u32;
+    let wanted = &settings.components;
+    let restricted = wanted.iter().any(|&w| !w);
 
     loop {
-        // In a homogeneous medium the collision distance is drawn first and the ray cut there:
-        // a surface beyond the collision never needs to be found. Surface data is built only if
-        // the ray gets there.
         let m = medium.map(|mi| &scene.media[mi as usize]);
-        let flight = m.and_then(|m| media::Flight::sample(m, beta, s));
+        // A restricted path tracer forces the collision in a homogeneous medium when a surface
+        // scattering next could reach no wanted component: the ray is traced to its surface
+        // first, to see whether that surface (an emitter, a specular or invisible one) keeps
+        // the path alive after all.
+        let force = restricted && m.is_some_and(|m| m.density.is_none()) && !class.surface_can_reach(wanted);
+        // Otherwise, in a homogeneous medium the collision distance is drawn first and the ray
+        // cut there: a surface beyond the collision never needs to be found. Surface data is
+        // built only if the ray gets there.
+        let flight = if force {
+            None
+        } else {
+            m.and_then(|m| media::Flight::sample(m, beta, s))
+        };
         let hit = ts.bvh.closest_hit(o, d, flight.map_or(f32::INFINITY, |f| f.t));
         let tmax = hit.map_or(f32::INFINITY, |h| h.t);
 
         if let Some(m) = m {
-            let event = match flight {
-                Some(f) => f.event(m, tmax),
-                None => media::sample_distance(m, o, d, tmax, beta, s),
+            let forced = match hit {
+                Some(h) if force && ends_path(ts, &h, d, &class, wanted) => media::forced_collision(m, tmax, beta, s),
+                _ => None,
+            };
+            let event = match (forced, flight) {
+                (Some(e), _) => e,
+                (None, Some(f)) => f.event(m, tmax),
+                (None, None) => media::sample_distance(m, o, d, tmax, beta, s),
             };
             match event {
                 MediumEvent::Scatter { t, weight } => {
@@ -174,10 +238,15 @@ pub fn radiance_split(
                         break;
                     }
                     class.scatter(Vertex::Medium);
+                    if restricted && !class.can_reach(wanted) {
+                        break;
+                    }
                     let p = o + d * t;
                     let wo = -d;
                     let phase = HenyeyGreenstein { g: m.g };
-                    if let Some(ls) = ts.lights.sample(scene, p, s) {
+                    if wanted[class.component() as usize]
+                        && let Some(ls) = ts.lights.sample(scene, p, s)
+                    {
                         let f = phase.eval(wo, ls.wi);
                         if f > 0.0 {
                             let tr = ts.shadow_transmittance(p, &ls, medium, s);
@@ -214,7 +283,7 @@ pub fn radiance_split(
         let sh = ts.surface(&h);
         let mat = ts.material(&sh);
 
-        if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) {
+        if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) && wanted[class.component() as usize] {
             let w = if specular {
                 1.0
             } else {
@@ -240,6 +309,9 @@ pub fn radiance_split(
         }
         if !bsdf.is_delta() {
             class.scatter(Vertex::Surface);
+            if restricted && !class.can_reach(wanted) {
+                break;
+            }
         }
         let frame = Frame::from_normal(sh.ns);
         let wo = -d;
@@ -249,6 +321,7 @@ pub fn radiance_split(
         let transmissive = matches!(bsdf, beamlight_scene::bsdf::Bsdf::Glass { .. });
 
         if !bsdf.is_delta()
+            && wanted[class.component() as usize]
             && let Some(ls) = ts.lights.sample(scene, sh.p, s)
         {
             let same_side = sh.ng.dot(ls.wi) * sh.ng.dot(wo) > 0.0;
@@ -280,6 +353,9 @@ pub fn radiance_split(
         specular = bs.is_delta;
         if bs.is_delta {
             class.specular_bounce();
+            if restricted && !class.can_reach(wanted) {
+                break;
+            }
         }
         medium = ts.medium_beyond(&sh, wi, medium);
         o = sh.spawn(wi);
@@ -287,6 +363,22 @@ pub fn radiance_split(
         if !russian_roulette(&mut beta, depth, settings.rr_depth, s) {
             break;
         }
+    }
+}
+
+/// Whether the path ends at surface hit `h` for a path tracer restricted to `wanted`: the
+/// surface scatters (neither specular nor an invisible boundary, which keep the path's class),
+/// scattering there reaches no wanted component, and its emission, if seen, is not wanted.
+fn ends_path(ts: &TraceScene, h: &crate::bvh::Hit, d: Vec3, class: &PathClass, wanted: &[bool; N]) -> bool {
+    let sh = ts.surface(h);
+    let mat = ts.material(&sh);
+    let seen_emitter = mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0);
+    if seen_emitter && wanted[class.component() as usize] {
+        return false;
+    }
+    match ts.scene.bsdf_at(sh.material, sh.uv) {
+        Some(bsdf) => !bsdf.is_delta() && !class.surface_can_reach(wanted),
+        None => false,
     }
 }
 
