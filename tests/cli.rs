@@ -972,3 +972,47 @@ fn interrupt_writes_the_image() {
         .unwrap();
     assert!((1..100000).contains(&spp), "{spp} passes");
 }
+
+/// `--only`: the path tracer writes the listed components and black elsewhere, the beauty is
+/// their sum; a name that is no component, or another method, is a clear error.
+#[test]
+fn only_restricts_the_path_tracer() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("only.exr");
+    run_ok(&small_render_by("pt", &out, &["--spp", "16", "--only", "Lmm,Lms"]));
+    let layers = beamlight_render::output::read_exr_layers(&out).unwrap();
+    assert_eq!(layers.len(), 8, "beauty and seven components");
+    let mut sum = vec![beamlight_scene::Rgb::ZERO; layers[0].1.pixels.len()];
+    for (name, img) in &layers[1..] {
+        let mean = img.mean().max_element();
+        if name == "Lmm" || name == "Lms" {
+            assert!(mean > 0.0, "{name} is black");
+        } else {
+            assert_eq!(mean, 0.0, "{name} was not asked for");
+        }
+        for (s, p) in sum.iter_mut().zip(&img.pixels) {
+            *s += *p;
+        }
+    }
+    for (s, b) in sum.iter().zip(&layers[0].1.pixels) {
+        assert!(
+            (*s - *b).abs().max_element() <= 1e-5 * b.max_element().max(1.0),
+            "{s} vs beauty {b}"
+        );
+    }
+    for (method, list, message) in [
+        ("pt", "Lmm,glow", "'glow' is not a component"),
+        ("vbl", "Lmm", "--only restricts the path tracer"),
+    ] {
+        let args = small_render_by(method, &out, &["--spp", "1", "--only", list]);
+        let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(
+            !o.status.success() && stderr(&o).contains(message),
+            "{method} --only {list}: {}",
+            stderr(&o)
+        );
+    }
+}

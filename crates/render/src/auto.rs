@@ -48,7 +48,7 @@ use crate::{
     progressive::{Budget, Progress, RenderOptions, RenderResult, path_trace_pass},
 };
 use beamlight_scene::Rgb;
-use beamlight_trace::{TraceScene, components::Component};
+use beamlight_trace::{TraceScene, components::Component, pt::PathTracerSettings};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -70,8 +70,10 @@ const VBL_SEED_SALT: u32 = 0x6a09_e667;
 /// header report.
 #[derive(Clone, Debug, Default)]
 pub struct AutoReport {
-    /// Path-traced samples per pixel (every component gets all of them) and their seconds.
-    pub pt_spp: u64,
+    /// Path-traced samples per pixel that estimated each component (the path tracer runs
+    /// restricted to the components it serves best, [`PathTracerSettings::components`]), and
+    /// the path tracer's seconds in all.
+    pub pt_spp: [u64; N],
     pub pt_seconds: f64,
     /// `vbl` passes that computed each component, in [`Component::ALL`] order.
     pub vbl_passes: [u64; N],
@@ -91,29 +93,32 @@ pub struct AutoReport {
 }
 
 impl AutoReport {
-    /// One line per component the scene can produce, e.g.
-    /// `Lsm: pt 512 spp (shared 4.1 s), vbl 20 passes (1.2 s), vbl weight 0.38`.
+    /// The path tracer's seconds, then one line per component the scene can produce, e.g.
+    /// `Lsm: pt 512 spp, vbl 20 passes (1.2 s), vbl weight 0.38`.
     pub fn lines(&self) -> Vec<String> {
-        Component::ALL
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| self.needed[*k])
-            .map(|(k, c)| {
-                format!(
-                    "{}: pt {} spp (shared, {:.2} s){}, vbl {} passes ({:.2} s), vbl weight {:.2}",
-                    c.name(),
-                    self.pt_spp,
-                    self.pt_seconds,
-                    if self.vbl_only[k] {
-                        " unused: it cannot reach these paths"
-                    } else {
-                        ""
-                    },
-                    self.vbl_passes[k],
-                    self.vbl_component_seconds[k],
-                    self.vbl_weight[k]
-                )
-            })
+        let pt = format!("pt: {:.2} s in all", self.pt_seconds);
+        std::iter::once(pt)
+            .chain(
+                Component::ALL
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| self.needed[*k])
+                    .map(|(k, c)| {
+                        format!(
+                            "{}: pt {} spp{}, vbl {} passes ({:.2} s), vbl weight {:.2}",
+                            c.name(),
+                            self.pt_spp[k],
+                            if self.vbl_only[k] {
+                                " unused: it cannot reach these paths"
+                            } else {
+                                ""
+                            },
+                            self.vbl_passes[k],
+                            self.vbl_component_seconds[k],
+                            self.vbl_weight[k]
+                        )
+                    }),
+            )
             .collect()
     }
 }
@@ -161,6 +166,12 @@ impl AutoSums {
         }
     }
 
+    /// The components the path tracer estimates: those the scene has, but not those only
+    /// `vbl` can reach.
+    pub fn pt_serves(&self) -> [bool; N] {
+        std::array::from_fn(|k| self.needed[k] && !self.vbl_only[k])
+    }
+
     /// Adds another render's sums (other passes of the same render, as [`Film::add_film`]).
     pub fn add(&mut self, other: &AutoSums) {
         for (a, b) in self
@@ -197,8 +208,8 @@ impl AutoSums {
 /// A step of the schedule.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Step {
-    /// This many path-traced samples per pixel.
-    Pt(u32),
+    /// This many path-traced samples per pixel of these components.
+    Pt(u32, [bool; N]),
     /// One `vbl` pass over these components.
     Vbl([bool; N]),
 }
@@ -206,8 +217,8 @@ enum Step {
 /// Measured costs, running means.
 #[derive(Default)]
 struct Costs {
-    pt_seconds: f64,
-    pt_spp: u64,
+    /// Per set of components the path tracer was restricted to: its seconds and samples.
+    pt: Vec<([bool; N], f64, u64)>,
     /// Per `vbl` pass: the shared part (wall time not in any component's estimator), and per
     /// component its estimator's seconds (CPU seconds over the threads plus GPU kernel seconds)
     /// summed over the passes that computed it.
@@ -218,8 +229,22 @@ struct Costs {
 }
 
 impl Costs {
-    fn per_spp(&self) -> f64 {
-        self.pt_seconds / self.pt_spp.max(1) as f64
+    /// Seconds per path-traced sample of the components in `mask`, once measured.
+    fn pt_per_spp(&self, mask: &[bool; N]) -> Option<f64> {
+        self.pt
+            .iter()
+            .find(|(m, _, _)| m == mask)
+            .map(|(_, seconds, spp)| seconds / (*spp).max(1) as f64)
+    }
+
+    fn add_pt(&mut self, mask: &[bool; N], seconds: f64, spp: u64) {
+        match self.pt.iter_mut().find(|(m, _, _)| m == mask) {
+            Some((_, s, n)) => {
+                *s += seconds;
+                *n += spp;
+            }
+            None => self.pt.push((*mask, seconds, spp)),
+        }
     }
 
     fn shared(&self) -> f64 {
@@ -414,7 +439,7 @@ pub fn render(
     let mut report = AutoReport {
         needed,
         vbl_only,
-        pt_spp: est.pt[0].samples,
+        pt_spp: std::array::from_fn(|k| est.pt[k].samples),
         vbl_passes: std::array::from_fn(|k| est.vbl[k].samples),
         ..Default::default()
     };
@@ -438,7 +463,7 @@ pub fn render(
     loop {
         let plan: Vec<Step> = match opts.budget {
             Budget::Passes(n) if steps >= n => break,
-            Budget::Passes(_) => vec![Step::Vbl(needed), Step::Pt(PT_SPP_PER_ROUND)],
+            Budget::Passes(_) => round_steps(&est, est.vbl_next),
             Budget::Time(limit) => {
                 let left = limit.saturating_sub(opts.start.elapsed()).as_secs_f64();
                 match next_step(&est, &costs, &combined, limit, left) {
@@ -446,14 +471,15 @@ pub fn render(
                     // What is left fits only a shorter `pt` slice, if anything; with no
                     // measured cost (nothing to render: a scene without light), one sample.
                     _ => {
-                        let k = match costs.pt_spp {
-                            0 => u32::from(steps == 0),
-                            _ => (left / costs.per_spp().max(1e-9)).floor().min(u32::MAX as f64) as u32,
+                        let all = est.pt_serves();
+                        let k = match costs.pt_per_spp(&all) {
+                            None => u32::from(steps == 0),
+                            Some(c) => (left / c.max(1e-9)).floor().min(u32::MAX as f64) as u32,
                         };
                         if k == 0 {
                             break;
                         }
-                        vec![Step::Pt(k)]
+                        vec![Step::Pt(k, all)]
                     }
                 }
             }
@@ -461,38 +487,33 @@ pub fn render(
         for step in plan {
             let clock = Instant::now();
             match step {
-                Step::Pt(k) => {
+                Step::Pt(k, mask) => {
+                    let settings = PathTracerSettings {
+                        components: mask,
+                        ..opts.path_tracer
+                    };
                     for _ in 0..k {
                         let pass = est.pt_next as u32;
                         est.pt_next += 1;
-                        path_trace_pass(
-                            ts,
-                            &opts.path_tracer,
-                            w,
-                            h,
-                            opts.seed,
-                            pass,
-                            &mut beauty,
-                            &mut pt_components,
-                        );
+                        path_trace_pass(ts, &settings, w, h, opts.seed, pass, &mut beauty, &mut pt_components);
                         // Seven films per sample cost about a tenth of a 96² sample on one
-                        // thread: the needed ones (and `direct`, which counts the samples), in
-                        // parallel.
+                        // thread: the ones this sample estimated, in parallel.
                         est.pt
                             .par_iter_mut()
                             .zip(est.pt_means.par_iter_mut())
                             .zip(pt_components.par_iter())
                             .enumerate()
-                            .filter(|(k, _)| needed[*k] || *k == 0)
+                            .filter(|(k, _)| mask[*k])
                             .for_each(|(_, ((film, means), b))| {
                                 film.add_pass(b);
                                 means.push(b);
                             });
-                        report.pt_spp += 1;
+                        for (n, _) in report.pt_spp.iter_mut().zip(mask).filter(|(_, m)| *m) {
+                            *n += 1;
+                        }
                     }
                     let s = clock.elapsed().as_secs_f64();
-                    costs.pt_seconds += s;
-                    costs.pt_spp += k as u64;
+                    costs.add_pt(&mask, s, k as u64);
                     report.pt_seconds += s;
                 }
                 Step::Vbl(mask) => {
@@ -638,25 +659,56 @@ impl Combined {
     }
 }
 
+/// Round `r` of a pass budget's fixed schedule: one `vbl` pass over every component, then
+/// [`PT_SPP_PER_ROUND`] path-traced samples, half of them over all the components `pt`
+/// serves and half over one of them alone, each in turn (so that the restricted path tracer
+/// takes part in a reproducible render, too).
+fn round_steps(est: &AutoSums, r: u64) -> Vec<Step> {
+    let serves = est.pt_serves();
+    let served: Vec<usize> = (0..N).filter(|&k| serves[k]).collect();
+    let mut steps = vec![Step::Vbl(est.needed)];
+    if served.len() > 1 {
+        let alone = served[(r % served.len() as u64) as usize];
+        steps.push(Step::Pt(PT_SPP_PER_ROUND / 2, serves));
+        steps.push(Step::Pt(PT_SPP_PER_ROUND / 2, std::array::from_fn(|k| k == alone)));
+    } else {
+        steps.push(Step::Pt(PT_SPP_PER_ROUND, serves));
+    }
+    steps
+}
+
 /// Predicted seconds of a step.
 fn step_seconds(step: Step, costs: &Costs) -> f64 {
     match step {
-        Step::Pt(k) => k as f64 * costs.per_spp(),
+        Step::Pt(k, mask) => k as f64 * costs.pt_per_spp(&mask).unwrap_or(0.0),
         Step::Vbl(mask) => costs.shared() + (0..N).filter(|&k| mask[k]).map(|k| costs.component(k)).sum::<f64>(),
     }
 }
 
-/// The next step with a time budget: first measure both estimators (two `pt` samples, then
-/// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance), then
-/// whichever lowers the modelled error fastest per second.
+/// The next step with a time budget: first measure both estimators (two `pt` samples of
+/// every component it serves, one sample of each such component alone, then
+/// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance and a
+/// cost), then whichever lowers the modelled error fastest per second: a `pt` slice over all
+/// its components or over one alone (restricted, its samples are cheaper and, in homogeneous
+/// media, less noisy: `pt::PathTracerSettings::components`), or a `vbl` pass over the
+/// components worth their own seconds.
 fn next_step(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration, left: f64) -> Option<Step> {
     let (needed, vbl_only) = (&est.needed, &est.vbl_only);
+    let serves = est.pt_serves();
     let slice = (limit.as_secs_f64() / 32.0).clamp(0.05, 1.0).min(left.max(0.0));
-    let pt_slice = |costs: &Costs| ((slice / costs.per_spp().max(1e-9)).round() as u32).max(1);
-    let any_pt = (0..N).any(|k| needed[k] && !vbl_only[k]);
-    let any_vbl = (0..N).any(|k| needed[k]);
-    if any_pt && est.pt[0].samples < 2 {
-        return Some(Step::Pt(2));
+    let any_pt = serves.iter().any(|&s| s);
+    let any_vbl = needed.iter().any(|&n| n);
+    if any_pt && (0..N).any(|k| serves[k] && est.pt[k].samples < 2) {
+        return Some(Step::Pt(2, serves));
+    }
+    // The path tracer's slices: over all its components, or over one alone.
+    let mut slices = vec![serves];
+    if serves.iter().filter(|&&s| s).count() > 1 {
+        slices.extend((0..N).filter(|&k| serves[k]).map(|k| std::array::from_fn(|j| j == k)));
+    }
+    // Each slice's cost, measured once up front.
+    if let Some(unmeasured) = slices.iter().find(|m| costs.pt_per_spp(m).is_none()) {
+        return Some(Step::Pt(2, *unmeasured));
     }
     // Measuring `vbl` takes at most a tenth of the budget (after its first pass, which shows
     // what a pass costs), unless a component has no other estimator.
@@ -667,9 +719,11 @@ fn next_step(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration
     if any_vbl && vbl_runs < MIN_VBL_PASSES && costs.vbl_passes < MIN_VBL_PASSES && explore {
         return Some(Step::Vbl(*needed));
     }
-    let n_pt = est.pt[0].samples as f64;
-    // Error reduction per second of path tracing, summed over the components it serves.
-    let mut pt_rate = 0.0;
+    // Error reduction per path-traced sample and per `vbl` pass of each component. A sample
+    // of a component alone counts as one of a slice over several: it is as noisy or less
+    // (its paths carry no other component's light, and in homogeneous media it collides
+    // for sure), so the choice below errs towards the slice over all.
+    let mut pt_gain = [0f64; N];
     let mut vbl_gain = [0f64; N];
     for k in 0..N {
         if !needed[k] {
@@ -682,11 +736,22 @@ fn next_step(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration
             vbl_gain[k] += e.vbl / n_vbl.max(1.0);
             continue;
         }
+        let n_pt = est.pt[k].samples as f64;
         let (_, d_pt, d_vbl) = e.model(n_pt, n_vbl, est.vbl[k].samples >= MIN_VBL_PASSES);
-        pt_rate -= d_pt;
+        pt_gain[k] = -d_pt;
         vbl_gain[k] -= d_vbl;
     }
-    pt_rate /= costs.per_spp().max(1e-9);
+    // The path tracer's best slice, by error reduction per second.
+    let per_spp = |m: &[bool; N]| costs.pt_per_spp(m).unwrap_or(0.0).max(1e-9);
+    let (pt_best, pt_rate) = slices
+        .iter()
+        .map(|m| {
+            (
+                *m,
+                (0..N).filter(|&k| m[k]).map(|k| pt_gain[k]).sum::<f64>() / per_spp(m),
+            )
+        })
+        .fold((serves, 0.0), |best, c| if c.1 > best.1 { c } else { best });
     // `vbl` components worth their own seconds against the path tracer's rate.
     let mut mask = [false; N];
     for k in 0..N {
@@ -702,7 +767,8 @@ fn next_step(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration
     if !any_pt {
         return None;
     }
-    Some(Step::Pt(pt_slice(costs)))
+    let spp = ((slice / per_spp(&pt_best)).round() as u32).max(1);
+    Some(Step::Pt(spp, pt_best))
 }
 
 #[cfg(test)]

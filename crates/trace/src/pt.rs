@@ -30,6 +30,11 @@ pub struct PathTracerSettings {
 
 const N: usize = Component::ALL.len();
 
+/// A component's bit in a set of components.
+const fn bit(c: Component) -> u8 {
+    1 << c as u8
+}
+
 impl Default for PathTracerSettings {
     fn default() -> Self {
         Self {
@@ -123,38 +128,26 @@ impl PathClass {
         }
     }
 
-    /// The components that light found from now on may belong to.
-    fn reachable(&self) -> [bool; N] {
-        let mut r = [false; N];
-        let mut add = |c: Component| r[c as usize] = true;
-        let caustic = |v: Vertex| match v {
-            Vertex::Surface => Component::CausticSurface,
-            Vertex::Medium => Component::CausticVolume,
-        };
+    /// The components that light found from now on may belong to, as a [`bit`] set.
+    fn reachable(&self) -> u8 {
+        use Component::*;
         match (self.v1, self.v2) {
-            (None, _) => r = [true; N],
-            (Some(v1), _) if self.specular_after_v1 => add(caustic(v1)),
-            (Some(v1), None) => {
-                add(Component::Direct);
-                add(caustic(v1));
-                let mut second = *self;
-                for v2 in [Vertex::Surface, Vertex::Medium] {
-                    second.v2 = Some(v2);
-                    add(second.component());
-                }
-            }
-            (Some(_), Some(_)) => add(self.component()),
+            (None, _) => u8::MAX,
+            (Some(Vertex::Surface), _) if self.specular_after_v1 => bit(CausticSurface),
+            (Some(Vertex::Medium), _) if self.specular_after_v1 => bit(CausticVolume),
+            (Some(Vertex::Surface), None) => bit(Direct) | bit(CausticSurface) | bit(Lss) | bit(Lsm),
+            (Some(Vertex::Medium), None) => bit(Direct) | bit(CausticVolume) | bit(Lms) | bit(Lmm),
+            (Some(_), Some(_)) => bit(self.component()),
         }
-        r
     }
 
-    /// Whether light found from now on can belong to a component in `wanted`.
-    fn can_reach(&self, wanted: &[bool; N]) -> bool {
-        self.reachable().iter().zip(wanted).any(|(&r, &w)| r && w)
+    /// Whether light found from now on can belong to a component in `wanted` (a [`bit`] set).
+    fn can_reach(&self, wanted: u8) -> bool {
+        self.reachable() & wanted != 0
     }
 
     /// Whether a path scattering at a (non-specular) surface next could still reach `wanted`.
-    fn surface_can_reach(&self, wanted: &[bool; N]) -> bool {
+    fn surface_can_reach(&self, wanted: u8) -> bool {
         let mut next = *self;
         next.scatter(Vertex::Surface);
         next.can_reach(wanted)
@@ -199,8 +192,13 @@ pub fn radiance_split(
     let mut prev_pdf = 0.0f32;
     let mut specular = true;
     let mut crossings = 0u32;
-    let wanted = &settings.components;
-    let restricted = wanted.iter().any(|&w| !w);
+    let wanted = settings
+        .components
+        .iter()
+        .zip(Component::ALL)
+        .filter(|(w, _)| **w)
+        .fold(0u8, |m, (_, c)| m | bit(c));
+    let restricted = settings.components.iter().any(|&w| !w);
 
     loop {
         let m = medium.map(|mi| &scene.media[mi as usize]);
@@ -244,7 +242,7 @@ pub fn radiance_split(
                     let p = o + d * t;
                     let wo = -d;
                     let phase = HenyeyGreenstein { g: m.g };
-                    if wanted[class.component() as usize]
+                    if wanted & bit(class.component()) != 0
                         && let Some(ls) = ts.lights.sample(scene, p, s)
                     {
                         let f = phase.eval(wo, ls.wi);
@@ -283,7 +281,7 @@ pub fn radiance_split(
         let sh = ts.surface(&h);
         let mat = ts.material(&sh);
 
-        if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) && wanted[class.component() as usize] {
+        if mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0) && wanted & bit(class.component()) != 0 {
             let w = if specular {
                 1.0
             } else {
@@ -321,7 +319,7 @@ pub fn radiance_split(
         let transmissive = matches!(bsdf, beamlight_scene::bsdf::Bsdf::Glass { .. });
 
         if !bsdf.is_delta()
-            && wanted[class.component() as usize]
+            && wanted & bit(class.component()) != 0
             && let Some(ls) = ts.lights.sample(scene, sh.p, s)
         {
             let same_side = sh.ng.dot(ls.wi) * sh.ng.dot(wo) > 0.0;
@@ -369,11 +367,11 @@ pub fn radiance_split(
 /// Whether the path ends at surface hit `h` for a path tracer restricted to `wanted`: the
 /// surface scatters (neither specular nor an invisible boundary, which keep the path's class),
 /// scattering there reaches no wanted component, and its emission, if seen, is not wanted.
-fn ends_path(ts: &TraceScene, h: &crate::bvh::Hit, d: Vec3, class: &PathClass, wanted: &[bool; N]) -> bool {
+fn ends_path(ts: &TraceScene, h: &crate::bvh::Hit, d: Vec3, class: &PathClass, wanted: u8) -> bool {
     let sh = ts.surface(h);
     let mat = ts.material(&sh);
     let seen_emitter = mat.is_emissive() && (mat.double_sided || sh.ng.dot(d) < 0.0);
-    if seen_emitter && wanted[class.component() as usize] {
+    if seen_emitter && wanted & bit(class.component()) != 0 {
         return false;
     }
     match ts.scene.bsdf_at(sh.material, sh.uv) {
