@@ -631,30 +631,3 @@ fn restricted_path_tracer_matches_its_components() {
     }
 }
 
-#[test]
-fn tmp_cornell_direct() {
-    use beamlight_trace::{TraceScene, components::Component, pt::PathTracerSettings};
-    let mut scene =
-        beamlight_scene::load::load_scene(std::path::Path::new("assets/scenes/cornell_glossy_fog.toml")).unwrap();
-    scene.render.width = 24;
-    scene.render.height = 24;
-    let ts = TraceScene::new(scene);
-    for seed in [3] {
-        let (full, full_se) = pt_components_with_errors(&ts, 1024, seed);
-        for c in [Component::Direct, Component::Lss] {
-            let settings = PathTracerSettings {
-                components: std::array::from_fn(|k| Component::ALL[k] == c),
-                ..Default::default()
-            };
-            let (ours, ours_se) = pt_components_with_errors_using(&ts, &settings, 1024, seed + 1);
-            eprintln!(
-                "seed {seed} {}: full {:.5} ± {:.5}, only {:.5} ± {:.5}",
-                c.name(),
-                full[c as usize].x,
-                full_se[c as usize].x,
-                ours[c as usize].x,
-                ours_se[c as usize].x
-            );
-        }
-    }
-}
