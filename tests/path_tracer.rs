@@ -630,4 +630,3 @@ fn restricted_path_tracer_matches_its_components() {
         }
     }
 }
-

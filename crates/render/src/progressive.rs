@@ -288,9 +288,10 @@ pub fn render_from(
             }
         }
         film.add_pass(&buffer);
-        for (f, b) in components.iter_mut().zip(&component_buffers) {
-            f.add_pass(b);
-        }
+        components
+            .par_iter_mut()
+            .zip(component_buffers.par_iter())
+            .for_each(|(f, b)| f.add_pass(b));
         passes += 1;
         if recent_periods.len() == 4 {
             recent_periods.pop_front();
@@ -335,26 +336,31 @@ pub fn path_trace_pass(
     components: &mut [Vec<Rgb>],
 ) {
     let split = !components.is_empty();
-    let mut per_pixel = vec![[Rgb::ZERO; Component::ALL.len()]; if split { out.len() } else { 0 }];
     let rows = out.par_chunks_mut(w as usize).enumerate();
     if split {
-        rows.zip(per_pixel.par_chunks_mut(w as usize))
-            .for_each(|((y, row), comps)| {
-                for (x, (px, c)) in row.iter_mut().zip(comps.iter_mut()).enumerate() {
+        // Each row of the image with the same row of every component buffer, so that the
+        // rows' threads write their components in place.
+        let mut component_rows: Vec<Vec<&mut [Rgb]>> = (0..h).map(|_| Vec::new()).collect();
+        for buffer in components.iter_mut() {
+            for (row, chunk) in component_rows.iter_mut().zip(buffer.chunks_mut(w as usize)) {
+                row.push(chunk);
+            }
+        }
+        rows.zip(component_rows.into_par_iter())
+            .for_each(|((y, row), mut comps)| {
+                for c in comps.iter_mut() {
+                    c.fill(Rgb::ZERO);
+                }
+                for (x, px) in row.iter_mut().enumerate() {
                     let mut s = Sampler::new(seed, pass, y as u32 * w + x as u32);
                     let mut sum = Rgb::ZERO;
                     pt::sample_pixel_split(ts, settings, x as u32, y as u32, w, h, &mut s, &mut |k, l| {
-                        c[k as usize] += l;
+                        comps[k as usize][x] += l;
                         sum += l;
                     });
                     *px = sum;
                 }
             });
-        for (i, c) in per_pixel.iter().enumerate() {
-            for (k, buffer) in components.iter_mut().enumerate() {
-                buffer[i] = c[k];
-            }
-        }
     } else {
         rows.for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
