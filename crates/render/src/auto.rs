@@ -513,7 +513,11 @@ pub fn render(
                         }
                     }
                     let s = clock.elapsed().as_secs_f64();
-                    costs.add_pt(&mask, s, k as u64);
+                    // The render's first slice pays for warming up (threads starting, memory
+                    // first touched): it measured twice the cost of later ones. Not a cost.
+                    if report.pt_seconds > 0.0 {
+                        costs.add_pt(&mask, s, k as u64);
+                    }
                     report.pt_seconds += s;
                 }
                 Step::Vbl(mask) => {
