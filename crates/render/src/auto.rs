@@ -690,7 +690,7 @@ fn step_seconds(step: Step, costs: &Costs) -> f64 {
 }
 
 /// The next step with a time budget: first measure both estimators (two `pt` samples of
-/// every component it serves, one sample of each such component alone, then
+/// every component it serves, two of each such component alone, then
 /// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance and a
 /// cost), then whichever lowers the modelled error fastest per second: a `pt` slice over all
 /// its components or over one alone (restricted, its samples are cheaper and, in homogeneous

@@ -23,8 +23,8 @@ pub struct PathTracerSettings {
     /// reach a wanted one, light found for an unwanted one is not looked for, and in a
     /// homogeneous medium a segment whose far surface could only feed unwanted components
     /// collides for sure ([`media::forced_collision`]): e.g. for `Lmm` alone, every camera
-    /// ray scatters in the medium and so does the next segment. `--method auto` gives the path
-    /// tracer only the components it estimates better per second than `vbl`.
+    /// ray scatters in the medium and so does the next segment. `--only` sets it; `--method
+    /// auto` restricts its path tracer to the components it serves, and at times to one.
     pub components: [bool; N],
 }
 
