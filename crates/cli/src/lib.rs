@@ -874,6 +874,9 @@ fn stats_json(
         "process_seconds": process.as_secs_f64(),
         "startup_seconds": startup.as_secs_f64(),
         "render_seconds": result.elapsed.as_secs_f64(),
+        // Path tracing keeps every worker busy: its CPU seconds are about these wall seconds
+        // times the threads (the per-component figures below are CPU seconds already).
+        "threads": rayon::current_num_threads(),
         "path_tracing_seconds": match (&result.auto, opts.method) {
             (Some(report), _) => report.pt_seconds,
             (None, Method::Pt) => result.elapsed.as_secs_f64(),

@@ -684,7 +684,7 @@ fn scene_summary(
     let last = budgets[budgets.len() - 1];
     let _ = writeln!(
         out,
-        "\nWhere the time went at the {last:.2} s budget (first repeat): start-up, then each component that ran, as CPU seconds (summed over threads) + GPU kernel seconds; a component not listed did not run (took 0 s).\n"
+        "\nWhere the time went at the {last:.2} s budget (first repeat): start-up, then each component that ran, as CPU seconds (summed over threads; path tracing's as its wall seconds times the threads, all of which it keeps busy) + GPU kernel seconds; a component not listed did not run (took 0 s).\n"
     );
     let _ = writeln!(
         out,
@@ -705,7 +705,7 @@ fn scene_summary(
             let t = r.timing.render;
             parts.push((format!("volpath ({v}) {t:.2}"), "volpath".into(), t));
         } else if k.method == "pt" {
-            let t = st["path_tracing_seconds"].as_f64().unwrap_or(0.0);
+            let t = path_tracing_cpu(st);
             parts.push((
                 format!("path tracing (all components) {t:.2}"),
                 "path tracing".into(),
@@ -713,7 +713,7 @@ fn scene_summary(
             ));
         } else if let Some(obj) = st["components"].as_object() {
             // `auto` path traces too, besides its `vbl` passes' components.
-            let t = st["path_tracing_seconds"].as_f64().unwrap_or(0.0);
+            let t = path_tracing_cpu(st);
             if t > 0.0 {
                 parts.push((format!("path tracing {t:.2}"), "path tracing".into(), t));
             }
@@ -849,4 +849,11 @@ fn convention_check(
         }
     );
     Ok(())
+}
+
+/// A render's path-tracing CPU seconds from its `--stats-json`: wall seconds times the threads
+/// (path tracing keeps every worker busy); files from before the `threads` field count one.
+fn path_tracing_cpu(stats: &serde_json::Value) -> f64 {
+    let wall = stats["path_tracing_seconds"].as_f64().unwrap_or(0.0);
+    wall * stats["threads"].as_f64().unwrap_or(1.0)
 }
