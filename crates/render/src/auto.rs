@@ -690,12 +690,13 @@ fn step_seconds(step: Step, costs: &Costs) -> f64 {
 }
 
 /// The next step with a time budget: first measure both estimators (two `pt` samples of
-/// every component it serves, two of each such component alone, then
+/// every component it serves, two of each kind of restricted slice, then
 /// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance and a
 /// cost), then whichever lowers the modelled error fastest per second: a `pt` slice over all
-/// its components or over one alone (restricted, its samples are cheaper and, in homogeneous
-/// media, less noisy: `pt::PathTracerSettings::components`), or a `vbl` pass over the
-/// components worth their own seconds.
+/// its components, over the medium-first or the surface-first ones, or over one alone
+/// (restricted, its samples are cheaper and, in homogeneous media, less noisy:
+/// `pt::PathTracerSettings::components`), or a `vbl` pass over the components worth their
+/// own seconds.
 fn next_step(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration, left: f64) -> Option<Step> {
     let (needed, vbl_only) = (&est.needed, &est.vbl_only);
     let serves = est.pt_serves();
@@ -705,9 +706,17 @@ fn next_step(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration
     if any_pt && (0..N).any(|k| serves[k] && est.pt[k].samples < 2) {
         return Some(Step::Pt(2, serves));
     }
-    // The path tracer's slices: over all its components, or over one alone.
+    // The path tracer's slices: over all its components, over those whose first vertex is in
+    // a medium or on a surface (each shares its camera rays), or over one alone.
     let mut slices = vec![serves];
     if serves.iter().filter(|&&s| s).count() > 1 {
+        use Component::*;
+        for group in [[Lmm, Lms, CausticVolume], [Lsm, Lss, CausticSurface]] {
+            let m: [bool; N] = std::array::from_fn(|k| serves[k] && group.contains(&Component::ALL[k]));
+            if m.iter().filter(|&&x| x).count() > 1 {
+                slices.push(m);
+            }
+        }
         slices.extend((0..N).filter(|&k| serves[k]).map(|k| std::array::from_fn(|j| j == k)));
     }
     // Each slice's cost, measured once up front.
