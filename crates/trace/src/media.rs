@@ -160,7 +160,6 @@ impl Flight {
     }
 }
 
-/// Inverse-CDF sample of an exponential with rate `sigma`; 1−u ∈ (0, 1] keeps the log finite.
 /// A collision forced before `tmax` in a homogeneous medium, for a path whose alternative,
 /// passing on to the surface at `tmax`, would carry nothing the caller wants (the path tracer
 /// restricted to some components, [`crate::pt::PathTracerSettings::components`]): the distance
@@ -177,33 +176,27 @@ pub fn forced_collision(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler)
     }
     // P(collision before tmax) per channel, 1 − e^{−σt·tmax}, accurate for thin segments.
     let collide = |st: f32| -(-st * tmax).exp_m1();
-    let grey = sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z;
-    // The channel's random number is drawn in the grey case too, as in [`Flight`].
-    let u_channel = s.next_1d();
-    let u = s.next_1d();
-    let truncated = |st: f32| {
-        let t = -(-u * collide(st)).ln_1p() / st;
-        // Rounding can land exactly on tmax; the collision must lie before the surface.
-        t.min(tmax.next_down())
-    };
-    if grey {
-        let p = collide(sigma_t.x);
-        if p <= 0.0 {
-            return None;
-        }
-        return Some(MediumEvent::Scatter {
-            t: truncated(sigma_t.x),
-            weight: m.sigma_s / sigma_t.x * p,
-        });
-    }
-    let pmf = channel_pmf(throughput);
-    let c = pick_channel(pmf, u_channel);
-    let t = truncated(sigma_t[c]);
-    let tr = homogeneous_transmittance(sigma_t, t);
     let p = Rgb::new(collide(sigma_t.x), collide(sigma_t.y), collide(sigma_t.z));
     if p.min_element() <= 0.0 {
         return None;
     }
+    // The channel's random number is drawn in the grey case too, as in [`Flight`].
+    let u_channel = s.next_1d();
+    let u = s.next_1d();
+    let truncated = |c: usize| {
+        let t = -(-u * p[c]).ln_1p() / sigma_t[c];
+        // Rounding can land exactly on tmax; the collision must lie before the surface.
+        t.min(tmax.next_down())
+    };
+    if sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z {
+        return Some(MediumEvent::Scatter {
+            t: truncated(0),
+            weight: m.sigma_s / sigma_t.x * p.x,
+        });
+    }
+    let pmf = channel_pmf(throughput);
+    let t = truncated(pick_channel(pmf, u_channel));
+    let tr = homogeneous_transmittance(sigma_t, t);
     let pdf = (pmf * sigma_t * tr / p).element_sum();
     if !(pdf > 0.0 && pdf.is_finite()) {
         return None;
@@ -214,6 +207,7 @@ pub fn forced_collision(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler)
     })
 }
 
+/// Inverse-CDF sample of an exponential with rate `sigma`; 1−u ∈ (0, 1] keeps the log finite.
 fn exponential(sigma: f32, u: f32) -> f32 {
     if sigma > 0.0 {
         -(1.0 - u).ln() / sigma
