@@ -317,6 +317,8 @@ fn degenerate_virtual_light_geometry_stays_finite() {
         medium: 0,
         throughput: [1.0; 3],
         pixel: 0,
+        end_normal: [0.0; 3],
+        _pad: 0,
     };
     let vrl_at = |o: Vec3, d: Vec3, len: f32| LightSegment {
         origin: o.into(),

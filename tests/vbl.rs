@@ -112,6 +112,8 @@ fn media_segment(origin: Vec3, dir: Vec3, length: f32) -> MediaSegment {
         medium: 0,
         throughput: [1.0; 3],
         pixel: 0,
+        end_normal: [0.0; 3],
+        _pad: 0,
     }
 }
 

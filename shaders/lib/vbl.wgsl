@@ -201,6 +201,22 @@ struct Collection {
     sheet: vec3<f32>,
     // Transmittance × visibility from origin to centre (the shadow ray's).
     transmittance: vec3<f32>,
+    // `vbl::Wall`: the surface a medium receiver's camera segment ends on, a point of it and
+    // the normal facing the receiver (`has_wall` false: none, or the receiver is not near it).
+    has_wall: bool,
+    wall_point: vec3<f32>,
+    wall_normal: vec3<f32>,
+}
+
+// `Wall::near`: `col` with the wall camera segment `seg` ends on, if its receiver lies within
+// 2R of the segment's end.
+fn with_end_wall(col: Collection, seg: MediaSegment) -> Collection {
+    var c = col;
+    c.wall_point = seg.origin + seg.dir * seg.length;
+    c.wall_normal = seg.end_normal;
+    let off = col.origin - c.wall_point;
+    c.has_wall = any(seg.end_normal != vec3<f32>(0.0)) && dot(off, off) <= 4.0 * col.r * col.r;
+    return c;
 }
 
 // `vbl::uncut_weight`: 1 / (the uncut fraction of the disc), in [1, 2].
@@ -240,7 +256,20 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
     if d > 0.0 {
         share = max(t, 0.0) / d;
     }
-    return transmittance_share(col.transmittance, share) * uncut_weight(height, reach);
+    var weight = uncut_weight(height, reach);
+    if col.has_wall {
+        let wall_n = dot(w, col.wall_normal);
+        let wall_height = (dot(col.origin - col.wall_point, col.wall_normal) * wm + dot(to, m) * wall_n) * select(1.0, -1.0, wm < 0.0);
+        let wall_reach = col.r * length_glam(col.wall_normal * wm - m * wall_n);
+        let in_front = dot(col.centre - col.wall_point, col.wall_normal) >= 0.0;
+        if in_front && wall_reach > 1e-4 * col.r * abs(wm) {
+            if wall_height < 0.0 {
+                return vec3<f32>(0.0);
+            }
+            weight *= uncut_weight(wall_height, wall_reach);
+        }
+    }
+    return transmittance_share(col.transmittance, share) * weight;
 }
 
 // `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') · collection_weight(col, ω') and

@@ -243,7 +243,7 @@ impl Gathers {
 
     /// Records per dispatch: as many as one storage binding holds of the largest record
     /// (a shading point), rounded down to a multiple of 16 so that every chunk's byte offset
-    /// (a multiple of 16 records of 16, 32, 48 or 80 bytes) is a multiple of 256, the largest
+    /// (a multiple of 16 records of 16, 32, 48, 64 or 80 bytes) is a multiple of 256, the largest
     /// storage-offset alignment an adapter may demand.
     /// Dispatches are also sized by work: at most [`PAIRS_PER_DISPATCH`] (record, light)
     /// pairs each (`pairs_per_record` is the lights a record gathers or draws), so that no

@@ -115,7 +115,11 @@ fn gather_structs_match() {
         ShadingPoint,
         [pos, material, normal, tri, wo, pixel, throughput, medium, uv, _pad2]
     );
-    check!(w, MediaSegment, [origin, length, dir, medium, throughput, pixel]);
+    check!(
+        w,
+        MediaSegment,
+        [origin, length, dir, medium, throughput, pixel, end_normal, _pad]
+    );
     check!(w, SurfaceVertex, [pos, material, normal, tri, wi, u, power, v]);
     check!(w, LightSegment, [origin, length, dir, medium, power, flags]);
     let w = parse("vbl_media.wgsl");
