@@ -13,6 +13,7 @@ use beamlight_render::{Budget, Method, RenderOptions, many_lights::ManyLightSett
 use beamlight_scene::Rgb;
 use beamlight_trace::TraceScene;
 use common::*;
+use glam::Vec3;
 use std::time::Instant;
 
 fn env<T: std::str::FromStr>(k: &str, d: T) -> T {
@@ -29,33 +30,15 @@ fn main() {
     let spp: u32 = env("SPP", 4096);
     let slab: bool = env("SLAB", 0u32) == 1;
     let mut scene = if slab {
-        let mut s = empty_scene(
-            glam::Vec3::new(0.0, 0.0, 0.0),
-            glam::Vec3::new(0.3, -1.0, 0.2),
-            50.0,
-            size,
-            size,
-        );
-        let wall = add_material(
-            &mut s,
-            material(
-                "wall",
-                Some(beamlight_scene::bsdf::Bsdf::Lambert {
-                    albedo: Rgb::splat(0.5),
-                }),
-                Rgb::ONE,
-                false,
-            ),
-        );
-        add_box_inward(
-            &mut s,
-            glam::Vec3::new(-3.5, -1.0, -3.5),
-            glam::Vec3::new(3.5, 1.0, 3.5),
-            wall,
-        );
-        s.media.push(homogeneous(Rgb::ONE, Rgb::ZERO, g));
-        s.global_medium = Some(0);
-        s
+        let camera = empty_scene(Vec3::ZERO, Vec3::new(0.3, -1.0, 0.2), 50.0, size, size);
+        furnace_box(
+            camera,
+            Vec3::new(-3.5, -1.0, -3.5),
+            Vec3::new(3.5, 1.0, 3.5),
+            Rgb::ONE,
+            g,
+            None,
+        )
     } else {
         furnace(Rgb::ONE, g, None)
     };

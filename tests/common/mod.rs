@@ -233,7 +233,19 @@ pub fn add_mesh(
 /// Closed box whose walls emit 1 and reflect with albedo 0.5, filled with a purely scattering
 /// medium: radiance is 2 everywhere, whatever σs and g are.
 pub fn furnace(sigma_s: Rgb, g: f32, grid: Option<beamlight_scene::medium::DensityGrid>) -> beamlight_scene::Scene {
-    let mut s = empty_scene(Vec3::new(0.1, -0.2, 0.3), Vec3::new(0.5, 0.3, -1.0), 70.0, 12, 12);
+    let s = empty_scene(Vec3::new(0.1, -0.2, 0.3), Vec3::new(0.5, 0.3, -1.0), 70.0, 12, 12);
+    furnace_box(s, Vec3::splat(-1.0), Vec3::splat(1.0), sigma_s, g, grid)
+}
+
+/// [`furnace`]'s walls and medium as the box `lo`..`hi` around the camera of `s`.
+pub fn furnace_box(
+    mut s: beamlight_scene::Scene,
+    lo: Vec3,
+    hi: Vec3,
+    sigma_s: Rgb,
+    g: f32,
+    grid: Option<beamlight_scene::medium::DensityGrid>,
+) -> beamlight_scene::Scene {
     let wall = add_material(
         &mut s,
         material(
@@ -245,7 +257,7 @@ pub fn furnace(sigma_s: Rgb, g: f32, grid: Option<beamlight_scene::medium::Densi
             false,
         ),
     );
-    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    add_box_inward(&mut s, lo, hi, wall);
     let mut m = homogeneous(sigma_s, Rgb::ZERO, g);
     m.density = grid;
     s.media.push(m);
