@@ -28,6 +28,7 @@ pub fn files() -> Vec<(String, Vec<u8>)> {
     ]
     .into_iter()
     .chain(crate::showcase::files())
+    .chain(crate::glass_scenes::files())
     .collect()
 }
 

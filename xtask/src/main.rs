@@ -27,6 +27,7 @@ mod assets;
 mod bad_scenes;
 mod bench;
 mod cluster;
+mod glass_scenes;
 mod showcase;
 
 const USAGE: &str = "usage: cargo xtask <command>

@@ -25,7 +25,10 @@ pub const USAGE: &str = "usage: cargo xtask bench [options]
   --budgets S,...       wall-time budgets in seconds before scaling (default 1,2,4,8,16)
   --time-scale X        multiplies every budget and the reference time (default 1)
   --size N              image width and height (default 96)
-  --ref-time S          seconds per reference half before scaling (default 60)
+  --ref-time S          seconds per reference half and estimator before scaling (default 60)
+  --ref-methods M,...   the reference's estimators: pt, or pt and a second independent one
+                        (e.g. pt,vrl), checked against each other per component and combined;
+                        'auto' (default): pt, plus vrl where the scene has caustics
   --repeats N           renders per budget (different seeds), medians reported (default 1)
   --target R            relMSE for the time-to-target table (default: what pt reaches at
                         the middle budget, per scene)
@@ -44,6 +47,8 @@ struct Options {
     scale: f64,
     size: u32,
     ref_time: f64,
+    /// `None`: per scene, pt plus vrl where it has caustics.
+    ref_methods: Option<Vec<String>>,
     repeats: u32,
     target: Option<f64>,
     mitsuba: bool,
@@ -64,6 +69,7 @@ fn parse(args: &[String]) -> Result<Options> {
         scale: 1.0,
         size: 96,
         ref_time: 60.0,
+        ref_methods: None,
         repeats: 1,
         target: None,
         mitsuba: true,
@@ -106,6 +112,7 @@ fn parse(args: &[String]) -> Result<Options> {
             "--time-scale" => o.scale = num(flag, v)?,
             "--size" => o.size = num(flag, v)? as u32,
             "--ref-time" => o.ref_time = num(flag, v)?,
+            "--ref-methods" => o.ref_methods = (v != "auto").then(|| list(v)),
             "--repeats" => o.repeats = num(flag, v)? as u32,
             "--target" => o.target = Some(num(flag, v)?),
             "--check-scene" => o.check_scene = (v != "none").then(|| v.clone()),
@@ -119,6 +126,14 @@ fn parse(args: &[String]) -> Result<Options> {
         if !["pt", "vrl", "vrl-clamped", "vbl", "auto"].contains(&m.as_str()) {
             bail!("unknown method '{m}' (pt, vrl, vrl-clamped, vbl, auto)");
         }
+    }
+    for m in o.ref_methods.iter().flatten() {
+        if !["pt", "vrl", "vrl-clamped", "vbl", "auto"].contains(&m.as_str()) {
+            bail!("unknown reference method '{m}'");
+        }
+    }
+    if o.ref_methods.as_ref().is_some_and(|m| m.is_empty() || m.len() > 2) {
+        bail!("--ref-methods takes one or two methods");
     }
     for b in &o.backends {
         if !["cpu", "gpu"].contains(&b.as_str()) {
@@ -240,7 +255,8 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
     let ref_settings = reference::RefSettings {
         size: o.size,
         seconds_per_half: o.ref_time * o.scale,
-        seeds: [1_000_001, 1_000_002],
+        seed_base: 1_000_001,
+        methods: vec!["pt".into()],
         renderer: renderer_id(root),
     };
     let budgets: Vec<f64> = o.budgets.iter().map(|b| b * o.scale).collect();
@@ -249,7 +265,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
     let _ = writeln!(summary, "# Benchmark: run time against error\n");
     let _ = writeln!(
         summary,
-        "Command: `cargo xtask bench {}`. Machine: {} cores, {}. Image {}², budgets {} s (start-up included), {} repeat(s) per budget (medians). Reference: `pt` for 2 × {:.0} s per scene. Mitsuba 3: {}.\n",
+        "Command: `cargo xtask bench {}`. Machine: {} cores, {}. Image {}², budgets {} s (start-up included), {} repeat(s) per budget (medians). Reference: `pt` (and, where the scene has caustics, `vrl`) for 2 × {:.0} s per estimator and scene. Mitsuba 3: {}.\n",
         args.join(" "),
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
         if gpu {
@@ -280,7 +296,16 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         let sname = scene_name(&scene);
         let swork = work.join(&sname);
         std::fs::create_dir_all(&swork)?;
-        let reference = reference::make_or_reuse(&bin, &cache, &scene, &ref_settings)?;
+        let ref_methods = match &o.ref_methods {
+            Some(m) => m.clone(),
+            None if has_caustics(&bin, &scene)? => vec!["pt".into(), "vrl".into()],
+            None => vec!["pt".into()],
+        };
+        let scene_ref = reference::RefSettings {
+            methods: ref_methods,
+            ..ref_settings.clone()
+        };
+        let reference = reference::make_or_reuse(&bin, &cache, &scene, &scene_ref)?;
         eprintln!(
             "bench: {sname}: reference {} spp ({}, {}), estimated relMSE {:.2e}",
             reference.spp,
@@ -438,6 +463,28 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
     Ok(())
 }
 
+/// Whether the scene needs a caustic component (`beamlight info`'s component list).
+fn has_caustics(bin: &Path, scene: &Path) -> Result<bool> {
+    let out = Command::new(bin)
+        .arg("info")
+        .arg(scene)
+        .output()
+        .with_context(|| format!("running {} info", bin.display()))?;
+    if !out.status.success() {
+        bail!(
+            "beamlight info {}: {}",
+            scene.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    // The line `components  direct, Lsm, …, caustic_surface (of the many-light methods; …)`.
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let Some(line) = stdout.lines().find(|l| l.starts_with("components ")) else {
+        bail!("beamlight info {}: no 'components' line in:\n{stdout}", scene.display());
+    };
+    Ok(line.split(" (").next().unwrap_or("").contains("caustic_"))
+}
+
 /// Whether `beamlight info` lists a Vulkan adapter (the `gpu` backend can run).
 fn adapter_present(bin: &Path) -> bool {
     let scene = bin
@@ -552,26 +599,73 @@ fn scene_summary(
         budgets[budgets.len() - 1],
         series.iter().map(|k| k.label()).collect::<Vec<_>>().join(", ")
     );
+    let per_layer = reference
+        .layer_est_rel_mse
+        .iter()
+        .filter(|(_, e)| *e > 0.0)
+        .map(|(n, e)| format!("{n} {e:.1e}"))
+        .collect::<Vec<_>>()
+        .join(", ");
     let _ = writeln!(
         out,
-        "Reference: `pt`, {} spp in {:.0} s ({}); relMSE between its halves {:.2e}, so its own relMSE ≈ {:.2e}.{}\n",
-        reference.spp,
+        "Reference: {} in {:.0} s ({}); relMSE between its halves {:.2e}, so its own relMSE ≈ {:.2e}.{}\n",
+        reference
+            .estimators
+            .iter()
+            .map(|e| format!(
+                "`{}` ({} {} in {} parts, own relMSE ≈ {:.2e})",
+                e.method,
+                e.spp,
+                if e.method == "pt" { "spp" } else { "passes" },
+                reference::PARTS,
+                e.est_rel_mse
+            ))
+            .collect::<Vec<_>>()
+            .join(" + "),
         reference.seconds,
         if reference.reused { "cached" } else { "made in this run" },
         reference.halves_rel_mse,
         reference.est_rel_mse,
-        reference
-            .layer_est_rel_mse
-            .iter()
-            .filter(|(_, e)| *e > 0.0)
-            .map(|(n, e)| format!(" {n} {e:.1e}"))
-            .collect::<Vec<_>>()
-            .join(",")
-            .chars()
-            .collect::<String>()
-            .split_once(' ')
-            .map_or(String::new(), |(_, rest)| format!(" Per component: {rest}."))
+        if per_layer.is_empty() {
+            String::new()
+        } else {
+            format!(" Per component: {per_layer}.")
+        }
     );
+    if let [e0, e1] = &reference.estimators[..] {
+        let _ = writeln!(
+            out,
+            "Cross-check of the reference's estimators per component (means of RGB / 3 over the image ± standard errors from the spread of {} parts each; z = difference / combined SE; tile Σz²: the same over 4 × 4 tiles, about 1.4 × the tile count (7-dof errors) when they agree everywhere; weight: `{}`'s share in the combination):\n",
+            reference::PARTS,
+            e0.method
+        );
+        let _ = writeln!(
+            out,
+            "| component | `{}` | `{}` | z | tile Σz² / tiles | weight `{}` | agree |",
+            e0.method, e1.method, e0.method
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|");
+        for c in &reference.cross_check {
+            if c.mean == [0.0, 0.0] {
+                continue;
+            }
+            let _ = writeln!(
+                out,
+                "| {} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} | {:+.2} | {:.1} / {} | {:.2} | {} |",
+                c.layer,
+                c.mean[0],
+                c.se[0],
+                c.mean[1],
+                c.se[1],
+                c.z,
+                c.tile_chi2,
+                c.tiles,
+                c.weight0,
+                if c.agrees() { "yes" } else { "**no**" }
+            );
+        }
+        out.push('\n');
+    }
     // Error table: series × budget.
     let _ = write!(out, "| relMSE (wall s, passes/spp) |");
     for b in budgets {

@@ -1,23 +1,39 @@
-//! The reference images: the path tracer run long, in two independent halves (different
-//! seeds), cached in `bench/cache/` under a key hashed from the scene's files and the settings.
+//! The reference images, cached in `bench/cache/` under a key hashed from the scene's files and
+//! the settings. Each reference estimator (the path tracer, and for scenes where it converges
+//! slowly a second, independent one such as unclamped `vrl`) renders [`PARTS`] independent
+//! parts (different seeds), split into two halves.
 //!
 //! The halves give the reference's own error: for independent unbiased estimates with
 //! per-pixel variance σ², the mean of the two has variance σ²/2 and the difference 2σ², so
 //! relMSE(reference, truth) ≈ relMSE(half A, half B) / 4 (with the denominator taken at the
 //! reference, as the metric does). Every measured error includes this floor.
+//!
+//! With two estimators, they are first checked against each other per component layer
+//! ([`CrossCheck`]): the difference of their image means (and of the means of 4 × 4 tiles)
+//! against standard errors from the parts' spread (batch means, which stay honest when an
+//! estimator's pixels are correlated, as the virtual lights of one pass make them). Then each
+//! layer of the reference is their inverse-variance combination, with one weight per layer and
+//! estimator, and the beauty is the sum of the combined layers; the halves are combined the same
+//! way, so the combination's own error is estimated as a single estimator's is.
 use super::metrics::{self, Image};
 use super::runs::{BeamlightRun, Budget};
 use anyhow::{Context, Result, bail};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
+/// Independent parts per reference estimator (the first half of them make half A).
+pub const PARTS: usize = 8;
+
 /// What a reference is made with; all of it is part of the cache key.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefSettings {
     pub size: u32,
-    /// Wall seconds per half (`--time`).
+    /// Wall seconds per half and estimator (each of the half's parts gets its share).
     pub seconds_per_half: f64,
-    pub seeds: [u32; 2],
+    /// Seeds of the parts are `seed_base + part`, offset per estimator.
+    pub seed_base: u32,
+    /// The estimators (`--method`s), the first usually `pt`.
+    pub methods: Vec<String>,
     /// Identifies the renderer (the last commit that touched its sources, plus "dirty" for
     /// uncommitted changes): a changed path tracer makes new references.
     pub renderer: String,
@@ -26,8 +42,12 @@ pub struct RefSettings {
 impl RefSettings {
     fn describe(&self) -> String {
         format!(
-            "pt --components size={} seconds_per_half={} seeds={:?} renderer={}",
-            self.size, self.seconds_per_half, self.seeds, self.renderer
+            "{} --components parts={PARTS} size={} seconds_per_half={} seed_base={} renderer={}",
+            self.methods.join("+"),
+            self.size,
+            self.seconds_per_half,
+            self.seed_base,
+            self.renderer
         )
     }
 }
@@ -88,6 +108,45 @@ pub fn cache_key(scene: &Path, settings: &RefSettings) -> Result<String> {
     Ok(format!("{:016x}", h.0))
 }
 
+/// The cache entry for this scene and these settings, if it exists and matches.
+pub fn cached(cache: &Path, scene: &Path, settings: &RefSettings) -> Result<Option<(PathBuf, Value)>> {
+    let key = cache_key(scene, settings)?;
+    let dir = entry_dir(cache, scene, &key);
+    let meta = dir.join("meta.json");
+    let Ok(bytes) = std::fs::read(&meta) else {
+        return Ok(None);
+    };
+    let value: Value = serde_json::from_slice(&bytes).with_context(|| format!("parsing {}", meta.display()))?;
+    let complete = value["key"].as_str() == Some(key.as_str())
+        && settings
+            .methods
+            .iter()
+            .all(|m| (0..PARTS).all(|p| dir.join(format!("{m}_{p}.exr")).is_file()));
+    Ok(complete.then_some((dir, value)))
+}
+
+fn entry_dir(cache: &Path, scene: &Path, key: &str) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    cache.join(format!("{stem}-{key}"))
+}
+
+/// One reference estimator's renders: its parts, merged per half.
+pub struct Estimator {
+    pub method: String,
+    /// Samples per pixel (path tracers) or passes, summed over the parts.
+    pub spp: u64,
+    pub seconds: f64,
+    /// Half A and half B (beauty, component layers), each the part-weighted mean of its parts.
+    halves: [(Image, Vec<(String, Image)>); 2],
+    /// Every part's layers (for the batch-means standard errors).
+    parts: Vec<Vec<(String, Image)>>,
+    /// Its own estimated relMSE (beauty) from its halves.
+    pub est_rel_mse: f64,
+}
+
 /// A loaded reference.
 pub struct Reference {
     pub dir: PathBuf,
@@ -102,106 +161,317 @@ pub struct Reference {
     /// The same per component layer (name, estimated relMSE of the merged reference layer).
     pub layer_est_rel_mse: Vec<(String, f64)>,
     pub reused: bool,
+    /// The estimators it was made from.
+    pub estimators: Vec<Estimator>,
+    /// With two estimators, their agreement and weights per layer.
+    pub cross_check: Vec<CrossCheck>,
 }
 
-/// The cache entry for this scene and these settings, if it exists and matches.
-pub fn cached(cache: &Path, scene: &Path, settings: &RefSettings) -> Result<Option<(PathBuf, Value)>> {
-    let key = cache_key(scene, settings)?;
-    let dir = entry_dir(cache, scene, &key);
-    let meta = dir.join("meta.json");
-    let Ok(bytes) = std::fs::read(&meta) else {
-        return Ok(None);
-    };
-    let value: Value = serde_json::from_slice(&bytes).with_context(|| format!("parsing {}", meta.display()))?;
-    let complete = value["key"].as_str() == Some(key.as_str())
-        && ["half_a.exr", "half_b.exr"].iter().all(|f| dir.join(f).is_file());
-    Ok(complete.then_some((dir, value)))
+/// Two reference estimators against each other on one component layer.
+#[derive(Clone, Debug)]
+pub struct CrossCheck {
+    pub layer: String,
+    /// Image means (RGB summed / 3) and their standard errors from the parts' spread.
+    pub mean: [f64; 2],
+    pub se: [f64; 2],
+    /// (mean₀ − mean₁) / √(se₀² + se₁²).
+    pub z: f64,
+    /// Σ z² over the 4 × 4 tiles whose means are not both zero, and how many tiles that is:
+    /// about the tile count when the two agree everywhere (with 7-dof standard errors the
+    /// expectation is 7/5 of it; a bias confined to part of the image shows here).
+    pub tile_chi2: f64,
+    pub tiles: usize,
+    /// Weight of the first estimator in the combination (inverse estimated variance).
+    pub weight0: f64,
 }
 
-fn entry_dir(cache: &Path, scene: &Path, key: &str) -> PathBuf {
-    let stem = scene
-        .file_stem()
-        .map(|s| s.to_string_lossy().to_string())
-        .unwrap_or_default();
-    cache.join(format!("{stem}-{key}"))
+impl CrossCheck {
+    /// Whether the two agree: |z| < 4 (two-sided p ≈ 0.005 for a t statistic with 7 degrees of
+    /// freedom), and the tile sum within 4 standard deviations of its expectation (a t₇² has
+    /// mean 7/5 and variance 7.84). Catches a bias of a few standard errors of the image mean,
+    /// or a larger one confined to a tile; not a bias smaller than the references' own noise.
+    pub fn agrees(&self) -> bool {
+        let n = self.tiles as f64;
+        self.z.abs() < 4.0 && self.tile_chi2 <= 1.4 * n + 4.0 * (7.84 * n).sqrt()
+    }
 }
 
-/// Makes the reference of `scene` (or reuses the cached one).
-pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSettings) -> Result<Reference> {
-    let (dir, meta, reused) = match cached(cache, scene, settings)? {
-        Some((dir, meta)) => (dir, meta, true),
-        None => {
-            let key = cache_key(scene, settings)?;
-            let dir = entry_dir(cache, scene, &key);
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-            let mut halves = Vec::new();
-            for (half, seed) in ["half_a", "half_b"].iter().zip(settings.seeds) {
+/// Renders (or finds in `dir`) the parts of one estimator.
+fn estimator(bin: &Path, dir: &Path, scene: &Path, settings: &RefSettings, index: usize) -> Result<(Value, Estimator)> {
+    let method = &settings.methods[index];
+    let meta_path = dir.join(format!("{method}.json"));
+    let file = |part: usize| dir.join(format!("{method}_{part}.exr"));
+    let meta: Value = match std::fs::read(&meta_path) {
+        Ok(bytes) if (0..PARTS).all(|p| file(p).is_file()) => serde_json::from_slice(&bytes)?,
+        _ => {
+            let seconds = settings.seconds_per_half / (PARTS / 2) as f64;
+            let mut parts = Vec::new();
+            for part in 0..PARTS {
+                let seed = settings.seed_base + (index * PARTS + part) as u32;
                 eprintln!(
-                    "bench: reference {} {half}: pt for {} s",
+                    "bench: reference {} {method} part {}/{PARTS}: {seconds:.0} s",
                     scene.display(),
-                    settings.seconds_per_half
+                    part + 1
                 );
                 let t = BeamlightRun {
                     bin,
                     scene,
-                    output: dir.join(format!("{half}.exr")),
-                    method: "pt",
+                    output: file(part),
+                    method,
                     backend: "cpu",
-                    budget: Budget::Seconds(settings.seconds_per_half),
+                    budget: Budget::Seconds(seconds),
                     seed,
                     size: settings.size,
                     components: true,
                 }
                 .run()?;
-                halves.push(json!({"spp": t.passes, "wall_seconds": t.wall, "render_seconds": t.render, "seed": seed}));
+                parts.push(json!({"spp": t.passes, "wall_seconds": t.wall, "render_seconds": t.render, "seed": seed}));
             }
-            let meta = json!({
-                "key": key,
-                "scene": scene.display().to_string(),
-                "files": scene_files(scene)?.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-                "settings": settings.describe(),
-                "halves": halves,
-            });
-            std::fs::write(dir.join("meta.json"), serde_json::to_string_pretty(&meta)?)?;
-            (dir, meta, false)
+            let meta = json!({ "method": method, "parts": parts });
+            std::fs::write(&meta_path, serde_json::to_string_pretty(&meta)?)?;
+            meta
         }
     };
-    let (a, la) = metrics::read_beauty_and_layers(&dir.join("half_a.exr"))?;
-    let (b, lb) = metrics::read_beauty_and_layers(&dir.join("half_b.exr"))?;
-    let spp = |i: usize| meta["halves"][i]["spp"].as_u64().unwrap_or(1);
-    let (na, nb) = (spp(0), spp(1));
-    let (wa, wb) = (na as f64 / (na + nb) as f64, nb as f64 / (na + nb) as f64);
-    let beauty = metrics::blend(&a, wa, &b, wb)?;
-    // relMSE(A, B) with B's denominators; the merged reference's error is about a quarter of
-    // the halves' when they have equal sample counts (in general wa²·eA + wb²·eB ≈ that).
-    let est = |x: &Image, y: &Image| -> Result<(f64, f64)> {
-        let halves = metrics::rel_mse(x, y)?;
-        Ok((halves, halves * (wa * wa + wb * wb) / 2.0))
+    let counts: Vec<u64> = (0..PARTS)
+        .map(|p| meta["parts"][p]["spp"].as_u64().unwrap_or(1).max(1))
+        .collect();
+    let mut images = Vec::new();
+    for part in 0..PARTS {
+        let (beauty, layers) = metrics::read_beauty_and_layers(&file(part))?;
+        images.push((beauty, layers));
+    }
+    // A half is its parts weighted by their sample counts, as one longer render would be.
+    let half = |range: std::ops::Range<usize>| -> Result<(Image, Vec<(String, Image)>)> {
+        let total: u64 = counts[range.clone()].iter().sum();
+        let mut acc = images[range.start].clone();
+        let w0 = counts[range.start] as f64 / total as f64;
+        acc.0 = metrics::blend(&acc.0, w0, &acc.0, 0.0)?;
+        for (_, l) in acc.1.iter_mut() {
+            *l = metrics::blend(l, w0, l, 0.0)?;
+        }
+        for p in range.start + 1..range.end {
+            let w = counts[p] as f64 / total as f64;
+            acc.0 = metrics::blend(&acc.0, 1.0, &images[p].0, w)?;
+            for ((n, l), (m, x)) in acc.1.iter_mut().zip(&images[p].1) {
+                if n != m {
+                    bail!("{method}: reference parts have different layers ({n} vs {m})");
+                }
+                *l = metrics::blend(l, 1.0, x, w)?;
+            }
+        }
+        Ok(acc)
     };
-    let (halves_rel_mse, est_rel_mse) = est(&a, &b)?;
+    let halves = [half(0..PARTS / 2)?, half(PARTS / 2..PARTS)?];
+    let (na, nb) = (
+        counts[..PARTS / 2].iter().sum::<u64>(),
+        counts[PARTS / 2..].iter().sum::<u64>(),
+    );
+    let est_rel_mse = halves_estimate(&halves[0].0, &halves[1].0, na, nb)?.1;
+    let est = Estimator {
+        method: method.clone(),
+        spp: na + nb,
+        seconds: (0..PARTS)
+            .map(|p| meta["parts"][p]["wall_seconds"].as_f64().unwrap_or(0.0))
+            .sum(),
+        halves,
+        parts: images.into_iter().map(|(_, l)| l).collect(),
+        est_rel_mse,
+    };
+    Ok((meta, est))
+}
+
+/// relMSE(A, B) with B's denominators, and the merged reference's own relMSE from it: about a
+/// quarter of the halves' when they have equal sample counts (in general wa²·eA + wb²·eB).
+fn halves_estimate(a: &Image, b: &Image, na: u64, nb: u64) -> Result<(f64, f64)> {
+    let (wa, wb) = (na as f64 / (na + nb) as f64, nb as f64 / (na + nb) as f64);
+    let halves = metrics::rel_mse(a, b)?;
+    Ok((halves, halves * (wa * wa + wb * wb) / 2.0))
+}
+
+/// The mean over pixels of (a − b)² summed over channels: an estimate of 2 × the per-pixel
+/// variance of one half.
+fn mean_sq_diff(a: &Image, b: &Image) -> f64 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(x, y)| (*x - *y).as_dvec3().length_squared())
+        .sum::<f64>()
+        / a.pixels.len().max(1) as f64
+}
+
+/// Means over a window of an image (RGB summed / 3), one per part, and their mean and standard
+/// error (batch means).
+fn batch_mean(parts: &[&Image], window: impl Fn(u32, u32) -> bool + Copy) -> (f64, f64) {
+    let means: Vec<f64> = parts
+        .iter()
+        .map(|img| {
+            let (mut sum, mut n) = (0.0f64, 0u64);
+            for y in 0..img.height {
+                for x in 0..img.width {
+                    if window(x, y) {
+                        sum += img.get(x, y).as_dvec3().element_sum() / 3.0;
+                        n += 1;
+                    }
+                }
+            }
+            sum / n.max(1) as f64
+        })
+        .collect();
+    let k = means.len() as f64;
+    let mean = means.iter().sum::<f64>() / k;
+    let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (k - 1.0).max(1.0);
+    (mean, (var / k).sqrt())
+}
+
+/// Compares two estimators on one layer (see [`CrossCheck`]).
+fn cross_check(name: &str, a: &[&Image], b: &[&Image], weight0: f64) -> CrossCheck {
+    let (ma, sa) = batch_mean(a, |_, _| true);
+    let (mb, sb) = batch_mean(b, |_, _| true);
+    let z = if sa + sb > 0.0 {
+        (ma - mb) / (sa * sa + sb * sb).sqrt()
+    } else if ma == mb {
+        0.0
+    } else {
+        f64::INFINITY
+    };
+    let (w, h) = (a[0].width, a[0].height);
+    let (mut chi2, mut tiles) = (0.0, 0);
+    for ty in 0..4 {
+        for tx in 0..4 {
+            let inside = move |x: u32, y: u32| x * 4 / w == tx && y * 4 / h == ty;
+            let (ta, tsa) = batch_mean(a, inside);
+            let (tb, tsb) = batch_mean(b, inside);
+            if ta == 0.0 && tb == 0.0 {
+                continue;
+            }
+            let var = tsa * tsa + tsb * tsb;
+            chi2 += if var > 0.0 {
+                (ta - tb).powi(2) / var
+            } else {
+                f64::INFINITY
+            };
+            tiles += 1;
+        }
+    }
+    CrossCheck {
+        layer: name.to_string(),
+        mean: [ma, mb],
+        se: [sa, sb],
+        z,
+        tile_chi2: chi2,
+        tiles,
+        weight0,
+    }
+}
+
+/// Makes the reference of `scene` (or reuses the cached one).
+pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSettings) -> Result<Reference> {
+    if settings.methods.is_empty() || settings.methods.len() > 2 {
+        bail!("a reference takes one or two estimators, not {:?}", settings.methods);
+    }
+    let key = cache_key(scene, settings)?;
+    let dir = entry_dir(cache, scene, &key);
+    let reused = cached(cache, scene, settings)?.is_some();
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut metas = Vec::new();
+    let mut estimators = Vec::new();
+    for i in 0..settings.methods.len() {
+        let (meta, e) = estimator(bin, &dir, scene, settings, i)?;
+        metas.push(meta);
+        estimators.push(e);
+    }
+    let meta = json!({
+        "key": key,
+        "scene": scene.display().to_string(),
+        "files": scene_files(scene)?.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        "settings": settings.describe(),
+        "estimators": metas,
+    });
+    std::fs::write(dir.join("meta.json"), serde_json::to_string_pretty(&meta)?)?;
+
+    // The combined halves: one estimator's as they are; two estimators' per layer, weighted by
+    // their inverse estimated variances, with the beauty the sum of the combined layers.
+    let mut cross = Vec::new();
+    let halves: [(Image, Vec<(String, Image)>); 2] = if estimators.len() == 1 {
+        estimators[0].halves.clone()
+    } else {
+        let (e0, e1) = (&estimators[0], &estimators[1]);
+        let names: Vec<String> = e0.halves[0].1.iter().map(|(n, _)| n.clone()).collect();
+        if names != e1.halves[0].1.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>() {
+            bail!(
+                "the reference estimators {} and {} have different layers",
+                e0.method,
+                e1.method
+            );
+        }
+        let mut out: [(Image, Vec<(String, Image)>); 2] = std::array::from_fn(|h| {
+            let b = &e0.halves[h].0;
+            (Image::new(b.width, b.height), Vec::new())
+        });
+        for (li, name) in names.iter().enumerate() {
+            let var = |e: &Estimator| mean_sq_diff(&e.halves[0].1[li].1, &e.halves[1].1[li].1);
+            let (v0, v1) = (var(e0), var(e1));
+            let w0 = match (v0 > 0.0, v1 > 0.0) {
+                (true, true) => (1.0 / v0) / (1.0 / v0 + 1.0 / v1),
+                // A layer one estimator has noise-free (e.g. zero everywhere in both) or not at all.
+                (false, _) => 1.0,
+                (true, false) => 0.0,
+            };
+            let parts = |e: &'_ Estimator| -> Vec<Image> { e.parts.iter().map(|p| p[li].1.clone()).collect() };
+            let (p0, p1) = (parts(e0), parts(e1));
+            cross.push(cross_check(
+                name,
+                &p0.iter().collect::<Vec<_>>(),
+                &p1.iter().collect::<Vec<_>>(),
+                w0,
+            ));
+            for (h, half) in out.iter_mut().enumerate() {
+                let layer = metrics::blend(&e0.halves[h].1[li].1, w0, &e1.halves[h].1[li].1, 1.0 - w0)?;
+                half.0 = metrics::blend(&half.0, 1.0, &layer, 1.0)?;
+                half.1.push((name.clone(), layer));
+            }
+        }
+        // The sum of the layers is the beauty (each renderer writes it so; checked here, as the
+        // combination relies on it).
+        for e in &estimators {
+            let b = &e.halves[0].0;
+            let mut sum = Image::new(b.width, b.height);
+            for (_, l) in &e.halves[0].1 {
+                sum = metrics::blend(&sum, 1.0, l, 1.0)?;
+            }
+            let rel = metrics::rel_mse(&sum, b)?;
+            if rel > 1e-8 {
+                bail!(
+                    "{}: the component layers do not sum to the beauty (relMSE {rel:.2e})",
+                    e.method
+                );
+            }
+        }
+        out
+    };
+    // Both halves have the same total weight per estimator: the combination's halves are
+    // weighted equally when every estimator's are (close enough: parts are equal-time).
+    let (halves_rel_mse, est_rel_mse) = halves_estimate(&halves[0].0, &halves[1].0, 1, 1)?;
+    let beauty = metrics::blend(&halves[0].0, 0.5, &halves[1].0, 0.5)?;
     let mut layers = Vec::new();
     let mut layer_est = Vec::new();
-    for ((name, x), (name_b, y)) in la.iter().zip(&lb) {
-        if name != name_b {
-            bail!("reference halves have different layers ({name} vs {name_b})");
-        }
-        layer_est.push((name.clone(), est(x, y)?.1));
-        layers.push((name.clone(), metrics::blend(x, wa, y, wb)?));
+    for ((name, x), (_, y)) in halves[0].1.iter().zip(&halves[1].1) {
+        layer_est.push((name.clone(), halves_estimate(x, y, 1, 1)?.1));
+        layers.push((name.clone(), metrics::blend(x, 0.5, y, 0.5)?));
     }
     metrics::write_exr(&dir.join("reference.exr"), &beauty)?;
-    let seconds = (0..2)
-        .map(|i| meta["halves"][i]["wall_seconds"].as_f64().unwrap_or(0.0))
-        .sum();
     Ok(Reference {
         dir,
         beauty,
         layers,
-        spp: na + nb,
-        seconds,
+        spp: estimators.iter().map(|e| e.spp).sum(),
+        seconds: estimators.iter().map(|e| e.seconds).sum(),
         halves_rel_mse,
         est_rel_mse,
         layer_est_rel_mse: layer_est,
         reused,
+        estimators,
+        cross_check: cross,
     })
 }
 
@@ -213,7 +483,8 @@ mod tests {
         RefSettings {
             size: 32,
             seconds_per_half: 10.0,
-            seeds: [1, 2],
+            seed_base: 1,
+            methods: vec!["pt".into()],
             renderer: "abc".into(),
         }
     }
@@ -265,8 +536,8 @@ mod tests {
         let cache = dir.path().join("cache");
         let entry = entry_dir(&cache, &scene, &k2);
         std::fs::create_dir_all(&entry).unwrap();
-        for f in ["half_a.exr", "half_b.exr"] {
-            std::fs::write(entry.join(f), b"x").unwrap();
+        for p in 0..PARTS {
+            std::fs::write(entry.join(format!("pt_{p}.exr")), b"x").unwrap();
         }
         std::fs::write(entry.join("meta.json"), json!({"key": k2}).to_string()).unwrap();
         assert!(cached(&cache, &scene, &settings()).unwrap().is_some());
@@ -277,5 +548,55 @@ mod tests {
                 .unwrap()
                 .is_none()
         );
+    }
+
+    /// `PARTS` noisy renders of a flat image of value `level` (uniform noise of ±0.2 per pixel).
+    fn noisy_parts(level: f32, seed: u64) -> Vec<Image> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.4
+        };
+        (0..PARTS)
+            .map(|_| {
+                let mut img = Image::new(16, 16);
+                for p in img.pixels.iter_mut() {
+                    *p = glam::Vec3::splat(level + next());
+                }
+                img
+            })
+            .collect()
+    }
+
+    /// The cross-check passes estimators of the same mean and flags a 5 % bias (and a bias
+    /// confined to one tile in the tile sum). Per-part image means have a standard error of
+    /// about 0.115 / 16 = 0.007, so 5 % of 1 is about 16 combined standard errors.
+    #[test]
+    fn cross_check_tells_agreeing_from_biased_estimators() {
+        let a = noisy_parts(1.0, 1);
+        let same = noisy_parts(1.0, 2);
+        let biased = noisy_parts(1.05, 3);
+        fn refs(v: &[Image]) -> Vec<&Image> {
+            v.iter().collect()
+        }
+        let ok = cross_check("x", &refs(&a), &refs(&same), 0.5);
+        assert!(ok.z.abs() < 4.0, "{ok:?}");
+        assert_eq!(ok.tiles, 16);
+        assert!(ok.agrees(), "{ok:?}");
+        let bad = cross_check("x", &refs(&a), &refs(&biased), 0.5);
+        assert!(bad.z.abs() > 8.0 && !bad.agrees(), "{bad:?}");
+        // A bias in one corner only: 30 % in the top-left tile (16 pixels of 256).
+        let mut corner = noisy_parts(1.0, 4);
+        for img in corner.iter_mut() {
+            for y in 0..4 {
+                for x in 0..4 {
+                    img.pixels[y * 16 + x] *= 1.3;
+                }
+            }
+        }
+        let local = cross_check("x", &refs(&a), &refs(&corner), 0.5);
+        assert!(!local.agrees(), "{local:?}");
     }
 }
