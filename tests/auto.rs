@@ -162,3 +162,17 @@ fn auto_takes_what_the_path_tracer_cannot_reach_from_vbl() {
         assert_eq!(mixed.pixels, alone.pixels, "{}: not vbl's image", c.name());
     }
 }
+
+/// With glass and an area light, `auto` takes the caustics from `vbl`'s photon estimators
+/// alone and keeps both estimators for every other component (the path tracer reaches them,
+/// heavy-tailed where lit through glass: the error model weighs that).
+#[test]
+fn auto_takes_the_caustics_from_the_photon_estimators() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/caustic_sphere.toml");
+    let ts = TraceScene::new(beamlight_scene::load::load_scene(&path).unwrap());
+    let only = beamlight_render::auto::vbl_only(&ts);
+    for c in Component::ALL {
+        let caustic = matches!(c, Component::CausticSurface | Component::CausticVolume);
+        assert_eq!(only[c as usize], caustic, "{}", c.name());
+    }
+}

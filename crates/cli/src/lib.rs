@@ -1153,20 +1153,29 @@ fn info(path: &Path) -> Result<()> {
         let only = beamlight_render::auto::vbl_only(&ts);
         let (solo, both): (Vec<Component>, Vec<Component>) = needed.iter().partition(|c| only[**c as usize]);
         let list = |v: &[Component]| v.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ");
-        let mut plan = String::new();
+        let (caustics, blind): (Vec<Component>, Vec<Component>) = solo
+            .into_iter()
+            .partition(|c| matches!(c, Component::CausticSurface | Component::CausticVolume));
+        let mut plan = Vec::new();
         if !both.is_empty() {
-            plan += &format!(
-                "{}: pt and vbl, weighted per 8x8 tile by their measured errors; vbl runs a component only while its passes lower the error faster per second than path tracing",
+            plan.push(format!(
+                "{}: pt and vbl, one weight per component from their measured errors; vbl runs a component only while its passes lower the error faster per second than path tracing",
                 list(&both)
-            );
+            ));
         }
-        if !solo.is_empty() {
-            plan += &format!(
-                "{}{}: vbl alone (the path tracer cannot follow light from point, spot or directional lights through mirrors or glass, which reaches these)",
-                if plan.is_empty() { "" } else { "; " },
-                list(&solo)
-            );
+        if !caustics.is_empty() {
+            plan.push(format!(
+                "{}: vbl's photon maps and beams alone (the path tracer finds caustic light only by hitting an emitter through the mirror or glass: rare, heavy-tailed samples)",
+                list(&caustics)
+            ));
         }
+        if !blind.is_empty() {
+            plan.push(format!(
+                "{}: vbl alone (the path tracer cannot follow light from point, spot or directional lights through mirrors or glass, which reaches these)",
+                list(&blind)
+            ));
+        }
+        let plan = plan.join("; ");
         outln!(out, "auto        {plan}");
     }
     let cam_medium = ts
