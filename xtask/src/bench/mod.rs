@@ -17,9 +17,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 pub const USAGE: &str = "usage: cargo xtask bench [options]
-  --scenes A,B,...      scene names in assets/scenes/ or paths to .toml files
-                        (default cornell_glossy_fog,cornell_smoke,cornell)
-  --methods M,...       pt,vrl,vrl-clamped,vbl (default all four)
+  --scenes A,B,...      scene names in assets/scenes/ or paths to .toml files (default
+                        cornell_glossy_fog,cornell_smoke,cornell, and the glass scenes
+                        caustic_sphere,caustic_sphere_wide,lamp_in_glass,cars_small)
+  --methods M,...       pt,vrl,vrl-clamped,vbl,auto (default all five)
   --backends B,...      cpu,gpu (default both; pt always runs on the cpu, and gpu is
                         skipped without a Vulkan adapter)
   --budgets S,...       wall-time budgets in seconds before scaling (default 1,2,4,8,16)
@@ -60,10 +61,18 @@ struct Options {
 
 fn parse(args: &[String]) -> Result<Options> {
     let mut o = Options {
-        scenes: ["cornell_glossy_fog", "cornell_smoke", "cornell"]
-            .map(String::from)
-            .to_vec(),
-        methods: ["pt", "vrl", "vrl-clamped", "vbl"].map(String::from).to_vec(),
+        scenes: [
+            "cornell_glossy_fog",
+            "cornell_smoke",
+            "cornell",
+            "caustic_sphere",
+            "caustic_sphere_wide",
+            "lamp_in_glass",
+            "cars_small",
+        ]
+        .map(String::from)
+        .to_vec(),
+        methods: ["pt", "vrl", "vrl-clamped", "vbl", "auto"].map(String::from).to_vec(),
         backends: ["cpu", "gpu"].map(String::from).to_vec(),
         budgets: vec![1.0, 2.0, 4.0, 8.0, 16.0],
         scale: 1.0,
@@ -687,15 +696,28 @@ fn scene_summary(
         .find(|(k, _)| k.renderer == "beamlight" && k.method == "pt");
     let target = target.or_else(|| pt.and_then(|(_, pts)| pts.get(pts.len() / 2)).map(|p| p.rel_mse));
     if let Some(target) = target {
-        let pt_wall = pt.and_then(|(_, pts)| {
-            summary::time_to_target(&pts.iter().map(|p| (p.wall, p.rel_mse)).collect::<Vec<_>>(), target)
-        });
-        let pt_render = pt.and_then(|(_, pts)| {
-            summary::time_to_target(&pts.iter().map(|p| (p.render, p.rel_mse)).collect::<Vec<_>>(), target)
-        });
+        // Time to the target, measured, or for the unbiased path tracers (whose error falls as
+        // 1/t) extrapolated from their last budget, marked `~`.
+        let floor = reference.est_rel_mse;
+        let time_to = |k: &SeriesKey, pts: &[Point], render: bool| -> (Option<f64>, bool) {
+            let curve: Vec<(f64, f64)> = pts
+                .iter()
+                .map(|p| (if render { p.render } else { p.wall }, p.rel_mse))
+                .collect();
+            match summary::time_to_target(&curve, target) {
+                Some(t) => (Some(t), false),
+                None if k.method == "pt" || k.renderer == "mitsuba" => {
+                    let t = summary::extrapolated_time(&curve, target, floor);
+                    (t, t.is_some())
+                }
+                None => (None, false),
+            }
+        };
+        let pt_wall = pt.map_or((None, false), |(k, pts)| time_to(k, pts, false));
+        let pt_render = pt.map_or((None, false), |(k, pts)| time_to(k, pts, true));
         let _ = writeln!(
             out,
-            "\nTime to reach relMSE {target:.2e} (log–log interpolation between budgets; `-`: not reached within the largest budget). Ratio = `pt`'s time / this one's (above 1: faster than `pt`).\n"
+            "\nTime to reach relMSE {target:.2e} (log–log interpolation between budgets; `-`: not reached within the largest budget; `~`: not reached, extrapolated for an unbiased path tracer as relMSE − floor ∝ 1/t from its last budget, with the reference's own relMSE {floor:.1e} as the floor). Ratio = `pt`'s time / this one's (above 1: faster than `pt`).\n"
         );
         let _ = writeln!(
             out,
@@ -704,22 +726,25 @@ fn scene_summary(
         let _ = writeln!(out, "|---|---|---|---|---|");
         let mut best: Option<(String, f64)> = None;
         for (k, pts) in curves {
-            let tw = summary::time_to_target(&pts.iter().map(|p| (p.wall, p.rel_mse)).collect::<Vec<_>>(), target);
-            let tr = summary::time_to_target(&pts.iter().map(|p| (p.render, p.rel_mse)).collect::<Vec<_>>(), target);
-            let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
-                (Some(a), Some(b)) if b > 0.0 => format!("{:.2}", a / b),
+            let (tw, tw_x) = time_to(k, pts, false);
+            let (tr, tr_x) = time_to(k, pts, true);
+            let mark = |x: bool| if x { "~" } else { "" };
+            let ratio = |a: (Option<f64>, bool), b: (Option<f64>, bool)| match (a.0, b.0) {
+                (Some(x), Some(y)) if y > 0.0 => format!("{}{:.2}", mark(a.1 || b.1), x / y),
                 _ => "-".into(),
             };
             let _ = writeln!(
                 out,
-                "| {} | {} | {} | {} | {} |",
+                "| {} | {}{} | {} | {}{} | {} |",
                 k.label(),
+                mark(tw_x),
                 summary::secs(tw),
-                ratio(pt_wall, tw),
+                ratio(pt_wall, (tw, tw_x)),
+                mark(tr_x),
                 summary::secs(tr),
-                ratio(pt_render, tr)
+                ratio(pt_render, (tr, tr_x))
             );
-            if let Some(t) = tw
+            if let Some(t) = tw.filter(|_| !tw_x)
                 && best.as_ref().is_none_or(|b| t < b.1)
             {
                 best = Some((k.label(), t));

@@ -30,6 +30,23 @@ pub fn time_to_target(points: &[(f64, f64)], target: f64) -> Option<f64> {
     None
 }
 
+/// For an unbiased estimator that has not reached `target` within its measurements: when it
+/// would, if its own error keeps falling as 1/t from the last measurement. `floor` is the
+/// reference's own relMSE, which every measured error includes and no estimator can go below:
+/// the estimator's part of the last error is `e − floor`. `None` when the target is not above
+/// twice the floor (the reference could not tell) or the curve has no usable point.
+pub fn extrapolated_time(points: &[(f64, f64)], target: f64, floor: f64) -> Option<f64> {
+    let (t, e) = points
+        .iter()
+        .copied()
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite())
+        .max_by(|a, b| a.0.total_cmp(&b.0))?;
+    if !(target > 2.0 * floor) || e <= target {
+        return None;
+    }
+    Some(t * (e - floor) / (target - floor))
+}
+
 /// Formats seconds compactly (`-` for none).
 pub fn secs(s: Option<f64>) -> String {
     match s {
@@ -41,6 +58,16 @@ pub fn secs(s: Option<f64>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn extrapolation_of_an_unbiased_curve() {
+        // relMSE 0.1 at 10 s over a floor of 0.001: 0.01 is reached at 10 × 0.099 / 0.009 = 110 s.
+        let t = extrapolated_time(&[(2.0, 0.5), (10.0, 0.1)], 0.01, 0.001).unwrap();
+        assert!((t - 110.0).abs() < 1e-9, "{t}");
+        // Not for a target the curve reached or one the reference cannot resolve.
+        assert_eq!(extrapolated_time(&[(10.0, 0.1)], 0.2, 0.0), None);
+        assert_eq!(extrapolated_time(&[(10.0, 0.1)], 0.01, 0.006), None);
+    }
 
     #[test]
     fn time_to_target_on_a_known_curve() {
