@@ -624,7 +624,7 @@ fn scene_summary(
             .map(|e| format!(
                 "`{}` ({} {} in {} parts, own relMSE ≈ {:.2e})",
                 e.method,
-                e.spp,
+                e.spp(),
                 if e.method == "pt" { "spp" } else { "passes" },
                 reference::PARTS,
                 e.est_rel_mse

@@ -136,8 +136,8 @@ fn entry_dir(cache: &Path, scene: &Path, key: &str) -> PathBuf {
 /// One reference estimator's renders: its parts, merged per half.
 pub struct Estimator {
     pub method: String,
-    /// Samples per pixel (path tracers) or passes, summed over the parts.
-    pub spp: u64,
+    /// Samples per pixel (path tracers) or passes in half A and in half B.
+    half_counts: [u64; 2],
     pub seconds: f64,
     /// Half A and half B (beauty, component layers), each the part-weighted mean of its parts.
     halves: [(Image, Vec<(String, Image)>); 2],
@@ -241,17 +241,18 @@ fn estimator(bin: &Path, dir: &Path, scene: &Path, settings: &RefSettings, index
         images.push((beauty, layers));
     }
     // A half is its parts weighted by their sample counts, as one longer render would be.
+    let (first, _) = &images[0];
+    let zero = Image::new(first.width, first.height);
     let half = |range: std::ops::Range<usize>| -> Result<(Image, Vec<(String, Image)>)> {
         let total: u64 = counts[range.clone()].iter().sum();
-        let mut acc = images[range.start].clone();
-        let w0 = counts[range.start] as f64 / total as f64;
-        acc.0 = metrics::blend(&acc.0, w0, &acc.0, 0.0)?;
-        for (_, l) in acc.1.iter_mut() {
-            *l = metrics::blend(l, w0, l, 0.0)?;
-        }
-        for p in range.start + 1..range.end {
+        let names = images[0].1.iter().map(|(n, _)| (n.clone(), zero.clone()));
+        let mut acc = (zero.clone(), names.collect::<Vec<_>>());
+        for p in range {
             let w = counts[p] as f64 / total as f64;
             acc.0 = metrics::blend(&acc.0, 1.0, &images[p].0, w)?;
+            if acc.1.len() != images[p].1.len() {
+                bail!("{method}: reference parts have different layers");
+            }
             for ((n, l), (m, x)) in acc.1.iter_mut().zip(&images[p].1) {
                 if n != m {
                     bail!("{method}: reference parts have different layers ({n} vs {m})");
@@ -262,14 +263,14 @@ fn estimator(bin: &Path, dir: &Path, scene: &Path, settings: &RefSettings, index
         Ok(acc)
     };
     let halves = [half(0..PARTS / 2)?, half(PARTS / 2..PARTS)?];
-    let (na, nb) = (
+    let half_counts = [
         counts[..PARTS / 2].iter().sum::<u64>(),
         counts[PARTS / 2..].iter().sum::<u64>(),
-    );
-    let est_rel_mse = halves_estimate(&halves[0].0, &halves[1].0, na, nb)?.1;
+    ];
+    let est_rel_mse = halves_estimate(&halves[0].0, &halves[1].0, half_counts[0], half_counts[1])?.1;
     let est = Estimator {
         method: method.clone(),
-        spp: na + nb,
+        half_counts,
         seconds: (0..PARTS)
             .map(|p| meta["parts"][p]["wall_seconds"].as_f64().unwrap_or(0.0))
             .sum(),
@@ -278,6 +279,13 @@ fn estimator(bin: &Path, dir: &Path, scene: &Path, settings: &RefSettings, index
         est_rel_mse,
     };
     Ok((meta, est))
+}
+
+impl Estimator {
+    /// Samples per pixel (path tracers) or passes, summed over the parts.
+    pub fn spp(&self) -> u64 {
+        self.half_counts.iter().sum()
+    }
 }
 
 /// relMSE(A, B) with B's denominators, and the merged reference's own relMSE from it: about a
@@ -449,22 +457,27 @@ pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSetti
         }
         out
     };
-    // Both halves have the same total weight per estimator: the combination's halves are
-    // weighted equally when every estimator's are (close enough: parts are equal-time).
-    let (halves_rel_mse, est_rel_mse) = halves_estimate(&halves[0].0, &halves[1].0, 1, 1)?;
-    let beauty = metrics::blend(&halves[0].0, 0.5, &halves[1].0, 0.5)?;
+    // One estimator's halves are weighted by their sample counts; a combination's equally
+    // (each estimator's halves hold about the same samples: their parts are equal-time).
+    let [na, nb] = match &estimators[..] {
+        [e] => e.half_counts,
+        _ => [1, 1],
+    };
+    let (wa, wb) = (na as f64 / (na + nb) as f64, nb as f64 / (na + nb) as f64);
+    let (halves_rel_mse, est_rel_mse) = halves_estimate(&halves[0].0, &halves[1].0, na, nb)?;
+    let beauty = metrics::blend(&halves[0].0, wa, &halves[1].0, wb)?;
     let mut layers = Vec::new();
     let mut layer_est = Vec::new();
     for ((name, x), (_, y)) in halves[0].1.iter().zip(&halves[1].1) {
-        layer_est.push((name.clone(), halves_estimate(x, y, 1, 1)?.1));
-        layers.push((name.clone(), metrics::blend(x, 0.5, y, 0.5)?));
+        layer_est.push((name.clone(), halves_estimate(x, y, na, nb)?.1));
+        layers.push((name.clone(), metrics::blend(x, wa, y, wb)?));
     }
     metrics::write_exr(&dir.join("reference.exr"), &beauty)?;
     Ok(Reference {
         dir,
         beauty,
         layers,
-        spp: estimators.iter().map(|e| e.spp).sum(),
+        spp: estimators.iter().map(Estimator::spp).sum(),
         seconds: estimators.iter().map(|e| e.seconds).sum(),
         halves_rel_mse,
         est_rel_mse,
