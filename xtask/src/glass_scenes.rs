@@ -188,13 +188,12 @@ fn lamp_in_glass_glb() -> Vec<u8> {
     // The globe: an outer sphere with normals out of the glass and an inner one turned inside
     // out (its normals point into the air inside, also out of the glass), so the shell between
     // them is the dielectric.
-    let (mut p, mut i, mut n) = sphere(GLOBE_CENTRE, GLOBE_OUTER, 32, 64, false);
+    let (p, i, mut n) = sphere(GLOBE_CENTRE, GLOBE_OUTER, 32, 64, false);
     let (pi, ii, ni) = sphere(GLOBE_CENTRE, GLOBE_INNER, 32, 64, true);
-    let off = p.len() as u32;
-    p.extend(pi);
+    let mut shell = (p, i);
+    shapes::merge(&mut shell, (pi, ii));
     n.extend(ni);
-    i.extend(ii.into_iter().map(|k| k + off));
-    let globe = b.add_mesh("Globe", &p, &i, Some(&n), Some(glass));
+    let globe = b.add_mesh("Globe", &shell.0, &shell.1, Some(&n), Some(glass));
     b.node(NodeDesc::new("Globe").with_mesh(globe));
     let (p, i, n) = sphere(GLOBE_CENTRE, BULB_RADIUS, 12, 24, false);
     let bulb_mesh = b.add_mesh("Bulb", &p, &i, Some(&n), Some(bulb));
