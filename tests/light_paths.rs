@@ -5,7 +5,7 @@ mod common;
 use beamlight_scene::{Rgb, bsdf::Bsdf, light::PunctualLight};
 use beamlight_trace::{
     TraceScene,
-    light_paths::{LightSegment, LightSet, LightTracerSettings, SurfaceVertex, trace_light_paths},
+    light_paths::{Keep, LightSegment, LightSet, LightTracerSettings, SurfaceVertex, trace_light_paths},
     media::homogeneous_transmittance,
 };
 use common::*;
@@ -175,4 +175,26 @@ fn double_sided_emitters_emit_from_both_faces() {
         "{got} vs {}",
         2.0 * one_side
     );
+}
+
+#[test]
+fn a_trace_keeping_some_records_stores_exactly_those_of_the_full_trace() {
+    // Glass and a mirror in a fog: every kind of record occurs.
+    let ts = TraceScene::new(glass_furnace(8, 16, true));
+    let full = trace_light_paths(&ts, &LightTracerSettings::default(), 2_000, 9, 3);
+    assert!(!full.caustic_photons.is_empty() && !full.photon_beams.is_empty());
+    for keep in [Keep::CAUSTIC_PHOTONS, Keep::PHOTON_BEAMS] {
+        let settings = LightTracerSettings {
+            keep,
+            ..Default::default()
+        };
+        let part = trace_light_paths(&ts, &settings, 2_000, 9, 3);
+        assert_eq!(part.paths, full.paths);
+        assert_eq!(part.vrls, if keep.vrls { full.vrls.clone() } else { vec![] });
+        assert_eq!(part.vpls, if keep.vpls { full.vpls.clone() } else { vec![] });
+        let photons = if keep.caustic_photons { full.caustic_photons.clone() } else { vec![] };
+        assert_eq!(part.caustic_photons, photons);
+        let beams = if keep.photon_beams { full.photon_beams.clone() } else { vec![] };
+        assert_eq!(part.photon_beams, beams);
+    }
 }

@@ -19,7 +19,7 @@ use beamlight_trace::{
     caustics::{BeamMap, PhotonMap},
     components::{Component, gathers_in_medium},
     direct,
-    light_paths::{LightTracerSettings, trace_light_paths},
+    light_paths::{Keep, LightTracerSettings, trace_light_paths},
     light_tree::{LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
@@ -332,10 +332,14 @@ pub fn start_pass(
     let r2 = pass_squared_radius(settings.radius, settings, pass);
     // The caustics' own light paths, one set for the photons and one for the beams (their
     // VPLs and VRLs are not used), each with its own count M in the estimates and eq. 11.
-    let caustic_set = |paths: u32, salt: u32| {
+    let caustic_set = |paths: u32, salt: u32, keep: Keep| {
         if paths > 0 {
             let seed_c = beamlight_scene::rng::pcg_hash(seed ^ salt);
-            trace_light_paths(ts, &LightTracerSettings::default(), paths, seed_c, pass)
+            let tracer = LightTracerSettings {
+                keep,
+                ..Default::default()
+            };
+            trace_light_paths(ts, &tracer, paths, seed_c, pass)
         } else {
             Default::default()
         }
@@ -347,8 +351,13 @@ pub fn start_pass(
         caustic_set(
             paths_for(Component::CausticSurface, settings.caustic_paths),
             0x1656_67b1,
+            Keep::CAUSTIC_PHOTONS,
         ),
-        caustic_set(paths_for(Component::CausticVolume, settings.beam_paths), 0x3c6e_f372),
+        caustic_set(
+            paths_for(Component::CausticVolume, settings.beam_paths),
+            0x3c6e_f372,
+            Keep::PHOTON_BEAMS,
+        ),
     );
     let (m_photons, m_beams) = (photon_lights.paths.max(1) as f32, beam_lights.paths.max(1) as f32);
     let photon_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, settings.caustic_paths, pass);

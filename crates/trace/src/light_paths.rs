@@ -87,6 +87,8 @@ pub struct LightTracerSettings {
     pub rr_depth: u32,
     /// Maximum number of scattering events per path (`None`: unbounded).
     pub max_depth: Option<u32>,
+    /// The records kept; the others are not stored (the walk is the same).
+    pub keep: Keep,
 }
 
 impl Default for LightTracerSettings {
@@ -94,8 +96,41 @@ impl Default for LightTracerSettings {
         Self {
             rr_depth: 3,
             max_depth: None,
+            keep: Keep::ALL,
         }
     }
+}
+
+/// Which of a [`LightSet`]'s record kinds a trace stores. The caustic sets of a pass need only
+/// their photons or their beams, and they come in hundreds of thousands of paths: keeping every
+/// VRL and VPL of theirs would cost about a kilobyte a path for records nobody reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Keep {
+    pub vrls: bool,
+    pub vpls: bool,
+    pub caustic_photons: bool,
+    pub photon_beams: bool,
+}
+
+impl Keep {
+    pub const ALL: Keep = Keep {
+        vrls: true,
+        vpls: true,
+        caustic_photons: true,
+        photon_beams: true,
+    };
+    pub const CAUSTIC_PHOTONS: Keep = Keep {
+        vrls: false,
+        vpls: false,
+        caustic_photons: true,
+        photon_beams: false,
+    };
+    pub const PHOTON_BEAMS: Keep = Keep {
+        vrls: false,
+        vpls: false,
+        caustic_photons: false,
+        photon_beams: true,
+    };
 }
 
 /// Traces `paths` light paths for pass `pass`; path `k` uses the random stream
@@ -180,8 +215,10 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
             let length = media::extent(m, o, tmax);
             if length.is_finite() && length > 0.0 {
                 let seg = segment(o, d, length, mi, power, flags);
-                set.vrls.push(seg);
-                if flags != 0 {
+                if settings.keep.vrls {
+                    set.vrls.push(seg);
+                }
+                if flags != 0 && settings.keep.photon_beams {
                     set.photon_beams.push(seg);
                 }
             }
@@ -239,8 +276,10 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
                 power: power.into(),
                 v: uv.y,
             };
-            set.vpls.push(vertex);
-            if flags & AFTER_SPECULAR != 0 {
+            if settings.keep.vpls {
+                set.vpls.push(vertex);
+            }
+            if flags & AFTER_SPECULAR != 0 && settings.keep.caustic_photons {
                 set.caustic_photons.push(vertex);
             }
         }
