@@ -693,7 +693,7 @@ fn compare_renders(method: Method, scene: Scene) {
         components: true,
         many_lights: ManyLightSettings {
             light_paths_per_pass: 24,
-            caustic_paths: 256,
+            caustic_paths: Some(256),
             beam_paths: 64,
             // `Lmm` draws its own number on both backends (`--media-light-samples`).
             media_light_samples: Some(6),

@@ -193,9 +193,10 @@ struct RenderArgs {
     #[arg(long, default_value_t = many_lights::DEFAULT_DIRECT_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=4096))]
     direct_samples: u32,
     /// Many-light methods: light paths traced per pass for the surface caustics (photon
-    /// mapping), apart from the gathers' `--light-paths`.
-    #[arg(long, default_value_t = many_lights::DEFAULT_CAUSTIC_PATHS, value_parser = clap::value_parser!(u32).range(1..))]
-    caustic_paths: u32,
+    /// mapping), apart from the gathers' `--light-paths` (default: 4 per pixel, at least
+    /// 32 768 and at most 4 194 304).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    caustic_paths: Option<u32>,
     /// Many-light methods: light paths traced per pass for the volume caustics (photon
     /// beams; each costs a lookup per camera media segment it crosses).
     #[arg(long, default_value_t = many_lights::DEFAULT_BEAM_PATHS, value_parser = clap::value_parser!(u32).range(1..))]

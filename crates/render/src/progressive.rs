@@ -158,7 +158,7 @@ pub fn render_from(
             many_lights::default_radius(&ts.scene)
         },
         // Without mirrors or glass there are no caustics: no light paths for them.
-        caustic_paths: if specular { opts.many_lights.caustic_paths } else { 0 },
+        caustic_paths: if specular { opts.many_lights.caustic_paths } else { Some(0) },
         beam_paths: if specular { opts.many_lights.beam_paths } else { 0 },
         photon_radius: if opts.many_lights.photon_radius > 0.0 {
             opts.many_lights.photon_radius
