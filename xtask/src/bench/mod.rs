@@ -370,6 +370,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
                             seed,
                             size: o.size,
                             components: false,
+                            extra_args: &[],
                         }
                         .run()?
                     };

@@ -38,6 +38,8 @@ pub struct BeamlightRun<'a> {
     pub seed: u32,
     pub size: u32,
     pub components: bool,
+    /// More options, after the ones above.
+    pub extra_args: &'a [&'a str],
 }
 
 impl BeamlightRun<'_> {
@@ -58,6 +60,7 @@ impl BeamlightRun<'_> {
         if self.components {
             cmd.arg("--components");
         }
+        cmd.args(self.extra_args);
         let wall = timed(&mut cmd)?;
         let stats: Value =
             serde_json::from_slice(&std::fs::read(&json).with_context(|| format!("reading {}", json.display()))?)
