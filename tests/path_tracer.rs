@@ -792,3 +792,40 @@ fn single_scattering_in_front_of_a_small_light_matches_quadrature() {
         "single scattering in front of a small light",
     );
 }
+
+/// A path whose throughput turns NaN (here a mirror with a NaN reflectance, which no light
+/// sample or emitter hit would expose: the reflected ray leaves the scene) must reach the film
+/// as a rejected sample, so the count that `--stats` and the tests read sees it. Before, the
+/// path ended silently and the image was merely black (failed: 0 rejected of 64).
+#[test]
+fn a_nan_throughput_is_counted_by_the_film() {
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO, 20.0, 4, 4);
+    let mirror = add_material(
+        &mut s,
+        material(
+            "mirror",
+            Some(beamlight_scene::bsdf::Bsdf::Mirror {
+                reflectance: Rgb::splat(f32::NAN),
+            }),
+            Rgb::ZERO,
+            false,
+        ),
+    );
+    add_quad(&mut s, Vec3::new(-1.0, -1.0, 0.0), Vec3::X * 2.0, Vec3::Y * 2.0, mirror);
+    let ts = beamlight_trace::TraceScene::new(s);
+    let opts = beamlight_render::RenderOptions {
+        method: beamlight_render::Method::Pt,
+        width: 4,
+        height: 4,
+        budget: beamlight_render::Budget::Passes(4),
+        seed: 1,
+        first_pass: 0,
+        path_tracer: Default::default(),
+        start: std::time::Instant::now(),
+        components: false,
+        many_lights: Default::default(),
+        gpu: None,
+    };
+    let film = beamlight_render::render(&ts, &opts, |_| true).unwrap().film;
+    assert_eq!(film.rejected, 4 * 4 * 4, "every sample's path lost its throughput");
+}

@@ -362,6 +362,12 @@ pub fn radiance_split(
             break;
         }
     }
+    // A throughput gone NaN or infinite (a weight or pdf bug upstream) has ended the path;
+    // handed on as a non-finite sample it is counted by the film (`Film::rejected`, reported
+    // and required to be 0 by the tests) instead of leaving the pixel a little dark unseen.
+    if !beta.is_finite() {
+        sink(class.component(), Rgb::splat(f32::NAN));
+    }
 }
 
 /// Whether the path ends at surface hit `h` for a path tracer restricted to `wanted`: the
