@@ -150,7 +150,7 @@ fn auto_takes_what_the_path_tracer_cannot_reach_from_vbl() {
     // `vbl` alone, with the seed `auto` gives its passes.
     let mut vbl = options(8, 8, 4, 1);
     vbl.method = Method::Vbl;
-    vbl.seed = beamlight_scene::rng::pcg_hash(1 ^ 0x6a09_e667);
+    vbl.seed = beamlight_render::auto::vbl_seed(1);
     let alone = render(&ts, &vbl, |_| true).unwrap();
     for c in &Component::ALL[1..] {
         assert_eq!(report.vbl_weight[*c as usize], 1.0, "{}", c.name());

@@ -72,9 +72,11 @@ const REFRESH: Duration = Duration::from_millis(500);
 const EXPLORE_SHARE: f64 = 0.1;
 /// Path-traced samples per pixel per round with a pass budget.
 pub const PT_SPP_PER_ROUND: u32 = 16;
-/// The `vbl` passes' seed is derived from the render's with this salt, so that the two
-/// estimators' random streams are independent (their errors must not correlate).
-const VBL_SEED_SALT: u32 = 0x6a09_e667;
+/// The seed of `auto`'s `vbl` passes in a render with `seed`: derived with a salt, so that
+/// the two estimators' random streams are independent (their errors must not correlate).
+pub fn vbl_seed(seed: u32) -> u32 {
+    beamlight_scene::rng::pcg_hash(seed ^ 0x6a09_e667)
+}
 
 /// Where each component's estimate came from: what `--stats`, `--stats-json` and the EXR
 /// header report.
@@ -475,7 +477,7 @@ pub fn render(
         vbl_passes: std::array::from_fn(|k| est.vbl[k].samples),
         ..Default::default()
     };
-    let vbl_seed = beamlight_scene::rng::pcg_hash(opts.seed ^ VBL_SEED_SALT);
+    let vbl_seed = vbl_seed(opts.seed);
     let gpu = opts.gpu.as_deref();
     let started = Instant::now();
     let total = match opts.budget {
@@ -948,7 +950,6 @@ mod tests {
         let (mse, d_pt, d_vbl) = e.model(100.0, 10.0, true);
         assert!((mse - 1.0 / (1.0 / 0.5 + 1.0 / 0.26)).abs() < 1e-12);
         let h = 1e-3;
-        let fd_pt = (e.model(100.0 + h, 10.0, true).0 - e.model(100.0 - h, 10.0, true).0) / (2.0 * h);
         // Moving n while the per-sample variance stays put: the model's variance scales as
         // n_then / n.
         let scaled = |n_pt: f64, n_vbl: f64| {
@@ -965,6 +966,5 @@ mod tests {
         let fd_vbl = (scaled(100.0, 10.0 + h) - scaled(100.0, 10.0 - h)) / (2.0 * h);
         assert!((d_pt - fd_pt2).abs() < 1e-6 * fd_pt2.abs(), "{d_pt} vs {fd_pt2}");
         assert!((d_vbl - fd_vbl).abs() < 1e-6 * fd_vbl.abs(), "{d_vbl} vs {fd_vbl}");
-        let _ = fd_pt;
     }
 }
