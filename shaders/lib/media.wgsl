@@ -194,7 +194,9 @@ fn transmittance(mi: u32, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<function
         }
         tr = tr * ratio_tracking(m, o, d, tmax, sigma_t * mask, lead, mask, s);
     }
-    return max(tr, vec3<f32>(0.0));
+    // Negative rounding cut to 0; a NaN stays NaN (for the record's discard count), which
+    // WGSL's max does not promise.
+    return select(tr, vec3<f32>(0.0), tr < vec3<f32>(0.0));
 }
 
 // `TraceScene::medium_transmittance`: NO_MEDIUM is vacuum.

@@ -252,7 +252,11 @@ pub fn transmittance_counted(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sa
         });
         tr *= tr_g;
     }
-    (tr.max(Rgb::ZERO), steps)
+    // Ratio tracking's factors are ≥ 0 under a true majorant, so only rounding makes a
+    // channel negative; that is cut to 0. A NaN (a NaN density) stays NaN for the estimators'
+    // admission to count (`Rgb::max` would make it 0 as well).
+    let non_negative = |v: f32| if v < 0.0 { 0.0 } else { v };
+    (Rgb::new(non_negative(tr.x), non_negative(tr.y), non_negative(tr.z)), steps)
 }
 
 /// Channels whose extinction is within this factor of their group's densest share a

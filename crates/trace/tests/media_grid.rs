@@ -261,3 +261,31 @@ fn vdb_grid_tracking_is_unbiased() {
     // The volume is ~3 × 0.7 × 1.2 units: denser coefficients so rays see real attenuation.
     check_medium("vdb", grid, 3.0);
 }
+
+/// A NaN density (one voxel) makes the transmittance of rays that meet it NaN, for the
+/// estimators' admission to count, not 0: clamping with `max` turned it into an opaque wall
+/// that nothing reported (failed before: no NaN in 2000 estimates, all 0 instead).
+#[test]
+fn a_nan_density_gives_a_nan_transmittance() {
+    let res = UVec3::splat(5);
+    let mut values = vec![1.0f32; 125];
+    values[2 + 5 * (2 + 5 * 2)] = f32::NAN;
+    let grid = DensityGrid::new(res, Vec3::ZERO, Vec3::ONE, values);
+    let m = Medium {
+        name: "nan".into(),
+        sigma_s: Rgb::splat(2.0),
+        sigma_a: Rgb::splat(0.5),
+        g: 0.0,
+        density: Some(grid),
+    };
+    // Straight through the middle voxel.
+    let (o, d) = (Vec3::new(0.5, 0.5, -0.1), Vec3::Z);
+    let mut nan = 0;
+    for k in 0..2000 {
+        let mut s = Sampler::new(3, 0, k);
+        let tr = transmittance(&m, o, d, 1.2, &mut s);
+        assert!(tr.is_nan() || tr.min_element() >= 0.0, "{tr}");
+        nan += tr.is_nan() as u32;
+    }
+    assert!(nan > 100, "{nan} of 2000 transmittance estimates were NaN");
+}
