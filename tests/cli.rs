@@ -353,6 +353,18 @@ fn bad_command_lines_are_refused() {
         assert_eq!(o.status.code(), Some(1), "{extra:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"));
     }
+    // Path counts with a few zeros too many are refused before anything is traced (they
+    // grew memory without bound), with the flag and the limit named.
+    for (flag, limit) in [
+        ("--caustic-paths", beamlight_render::many_lights::MAX_CAUSTIC_PATHS),
+        ("--light-paths", beamlight_render::many_lights::MAX_LIGHT_PATHS),
+        ("--beam-paths", beamlight_render::many_lights::MAX_BEAM_PATHS),
+    ] {
+        let o = render(&scene, &out, &["--spp", "1", flag, "4000000000"]);
+        let err = stderr(&o);
+        assert!(!o.status.success() && !err.contains("panicked"), "{flag}: {err}");
+        assert!(err.contains(flag) && err.contains(&limit.to_string()), "{flag}: {err}");
+    }
     let o = render(&scene, &dir.path().join("x.png"), &["--spp", "1"]);
     assert!(!o.status.success() && stderr(&o).contains("must end in .exr"));
     let o = render(&root().join("no/such/scene.toml"), &out, &["--spp", "1"]);

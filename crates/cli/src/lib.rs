@@ -176,8 +176,9 @@ struct RenderArgs {
     /// `--components`.
     #[arg(long, value_name = "LIST", value_parser = parse_component_list)]
     only: Option<ComponentList>,
-    /// Light paths traced per pass by the many-light methods (each leaves several VPLs/VRLs).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Light paths traced per pass by the many-light methods (each leaves several VPLs/VRLs;
+    /// at most 1 048 576).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=many_lights::MAX_LIGHT_PATHS as i64))]
     light_paths: u32,
     /// `vbl`: virtual lights each gather record draws per component from the pass's light
     /// tree (1–1024), or `all` to gather every light of the pass (the all-pairs estimator).
@@ -194,12 +195,12 @@ struct RenderArgs {
     direct_samples: u32,
     /// Many-light methods: light paths traced per pass for the surface caustics (photon
     /// mapping), apart from the gathers' `--light-paths` (default: 4 per pixel, at least
-    /// 32 768 and at most 4 194 304).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    /// 32 768 and at most 4 194 304; at most 16 777 216 given).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=many_lights::MAX_CAUSTIC_PATHS as i64))]
     caustic_paths: Option<u32>,
     /// Many-light methods: light paths traced per pass for the volume caustics (photon
-    /// beams; each costs a lookup per camera media segment it crosses).
-    #[arg(long, default_value_t = many_lights::DEFAULT_BEAM_PATHS, value_parser = clap::value_parser!(u32).range(1..))]
+    /// beams; each costs a lookup per camera media segment it crosses; at most 4 194 304).
+    #[arg(long, default_value_t = many_lights::DEFAULT_BEAM_PATHS, value_parser = clap::value_parser!(u32).range(1..=many_lights::MAX_BEAM_PATHS as i64))]
     beam_paths: u32,
     /// `vrl-clamped`: minimum distance in the 1/d² falloff (default: 5 % of the scene's diagonal).
     #[arg(long)]
