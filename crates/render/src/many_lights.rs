@@ -121,16 +121,17 @@ pub fn default_caustic_paths(w: u32, h: u32) -> u32 {
     per_pixel.clamp(MIN_CAUSTIC_PATHS as u64, MAX_DEFAULT_CAUSTIC_PATHS as u64) as u32
 }
 
-/// The most light paths a pass may trace for the gathers (`--light-paths`): each leaves about
-/// ten VRLs and VPLs of 48 and 64 bytes, with light trees over them, about 1 GB here. A
-/// count typed with a few zeros too many is refused, not traced until memory runs out.
+/// The most light paths a pass may trace for the gathers (`--light-paths`): each leaves its
+/// VRLs and VPLs (48 and 64 bytes, one of each per bounce), with light trees over them, so
+/// an estimated gigabyte or so at the limit. A count typed with a few zeros too many is
+/// refused, not traced until memory runs out.
 pub const MAX_LIGHT_PATHS: u32 = 1 << 20;
 /// The most caustic paths a pass may trace (`--caustic-paths`): one to a few photons a path
-/// at about 100 bytes with their index, 2–5 GB at the limit.
+/// at about 100 bytes with their index, an estimated 2–5 GB at the limit.
 pub const MAX_CAUSTIC_PATHS: u32 = 1 << 24;
 /// The most beam paths a pass may trace (`--beam-paths`): a few 48-byte beams a path, but every
 /// camera media segment crossing a beam's tube looks it up, so time runs out long before
-/// memory; about 0.5 GB at the limit.
+/// memory (an estimated 0.5 GB at the limit).
 pub const MAX_BEAM_PATHS: u32 = 1 << 22;
 
 /// Light paths per pass for the volume caustics by default (`--beam-paths`).

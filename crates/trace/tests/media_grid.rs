@@ -264,7 +264,7 @@ fn vdb_grid_tracking_is_unbiased() {
 
 /// A NaN density (one voxel) makes the transmittance of rays that meet it NaN, for the
 /// estimators' admission to count, not 0: clamping with `max` turned it into an opaque wall
-/// that nothing reported (failed before: no NaN in 2000 estimates, all 0 instead).
+/// that nothing reported (failed before: 0 of 2000 estimates NaN).
 #[test]
 fn a_nan_density_gives_a_nan_transmittance() {
     let res = UVec3::splat(5);
