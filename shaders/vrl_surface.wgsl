@@ -48,6 +48,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         var s = pair_sampler(KIND_VRL_TO_SURFACE, i, j);
         sum += admit(vrl_to_surface(sp, f_sp, vrls[j], &s), &discarded);
     }
-    let total = admit(sum * params.scale, &discarded);
+    let total = admit(injected(sum * params.scale, i), &discarded);
     gathered[i] = vec4<f32>(total, f32(discarded));
 }

@@ -93,6 +93,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         sum = sum / f32(params.light_samples);
     }
-    let total = admit(sum * params.scale, &discarded);
+    let total = admit(injected(sum * params.scale, i), &discarded);
     gathered[i] = vec4<f32>(total, f32(discarded));
 }

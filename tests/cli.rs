@@ -1032,3 +1032,121 @@ fn only_restricts_the_path_tracer() {
         );
     }
 }
+
+/// The discard counters end to end. `--inject-nan` (hidden, for tests) makes the first record
+/// of every gather of a pass estimate NaN, on the CPU and in each GPU kernel; on the glass-ball
+/// fog scene every component has records and lights in every pass, so a render of P passes
+/// must report exactly P discards per component through `--stats`, `--stats-json` and the EXR
+/// header, by `vbl` and `vrl` (the eight kernels between them) on either backend, and a render
+/// checkpointed and resumed, or split into pass ranges and merged, the same as the whole one.
+/// Catches a counter or GPU read-back stuck at 0, a kernel that writes without its `admit`, a
+/// count that a resume or merge loses or doubles, and an output that reports another figure.
+#[test]
+fn injected_nans_are_counted_through_every_output() {
+    use beamlight_trace::components::Component;
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name);
+    let scene = common::write_glass_ball_scene(dir.path());
+    let run = |method: &str, backend: &str, out: &str, extra: &[&str]| -> String {
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "--method",
+            method,
+            "--backend",
+            backend,
+            "--width",
+            "20",
+            "--height",
+            "16",
+            "--light-paths",
+            "16",
+            "--caustic-paths",
+            "512",
+            "--beam-paths",
+            "256",
+            "--inject-nan",
+            "--stats",
+        ];
+        let (out, json) = (p(out), p(&format!("{out}.json")));
+        args.extend(["-o", out.to_str().unwrap(), "--stats-json", json.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        let o = beamlight(&args);
+        assert!(o.status.success(), "{method} {backend} {extra:?}: {}", stderr(&o));
+        stderr(&o)
+    };
+    let expected = |passes: u64| {
+        Component::ALL
+            .iter()
+            .map(|c| format!("{} {passes}", c.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    // The EXR header's count, and the JSON's per component.
+    let header = |out: &str| {
+        let (_, meta) = read_exr(&p(out)).unwrap();
+        meta.into_iter()
+            .find(|(k, _)| k == "beamlight.discarded_estimates")
+            .unwrap_or_else(|| panic!("{out}: no beamlight.discarded_estimates"))
+            .1
+    };
+    let json = |out: &str| -> Vec<u64> {
+        let text = std::fs::read_to_string(p(&format!("{out}.json"))).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        Component::ALL
+            .iter()
+            .map(|c| v["components"][c.name()]["discarded"].as_u64().unwrap())
+            .collect()
+    };
+    let gpu = !beamlight_gpu::device::adapters().is_empty();
+    if !gpu {
+        assert!(
+            !beamlight_gpu::device::required_by_environment(),
+            "CI=true and no Vulkan adapter"
+        );
+        eprintln!("no Vulkan adapter: the GPU kernels' injected NaNs are not checked");
+    }
+    for method in ["vbl", "vrl"] {
+        for backend in if gpu { &["cpu", "gpu"][..] } else { &["cpu"][..] } {
+            let out = format!("{method}-{backend}.exr");
+            let log = run(method, backend, &out, &["--passes", "3"]);
+            let want = expected(3);
+            assert!(
+                log.contains(&format!("discarded estimates (NaN, ∞ or < 0): {want}")),
+                "{method} {backend} --stats: {log}"
+            );
+            assert!(log.contains("warning: estimates that were NaN"), "{log}");
+            assert_eq!(header(&out), want, "{method} {backend}: EXR header");
+            assert_eq!(json(&out), vec![3; Component::ALL.len()], "{method} {backend}: JSON");
+        }
+    }
+    // Resumed: 2 passes checkpointed, then continued to 5.
+    let ck = p("run.ck");
+    let ck = ck.to_str().unwrap();
+    run("vbl", "cpu", "run.exr", &["--passes", "2", "--checkpoint", ck]);
+    let log = run(
+        "vbl",
+        "cpu",
+        "run.exr",
+        &["--passes", "5", "--resume", ck, "--checkpoint", ck],
+    );
+    assert!(
+        log.contains(&format!("discarded estimates (NaN, ∞ or < 0): {}", expected(5))),
+        "{log}"
+    );
+    assert_eq!(header("run.exr"), expected(5), "resumed: EXR header");
+    assert_eq!(json("run.exr"), vec![5; Component::ALL.len()], "resumed: JSON");
+    // Split into pass ranges and merged.
+    run("vbl", "cpu", "a.exr", &["--passes", "0..2"]);
+    run("vbl", "cpu", "b.exr", &["--passes", "2..5"]);
+    let (a, b, m) = (p("a.accum"), p("b.accum"), p("m.exr"));
+    let o = beamlight(&[
+        "merge",
+        b.to_str().unwrap(),
+        a.to_str().unwrap(),
+        "-o",
+        m.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(header("m.exr"), expected(5), "merged: EXR header");
+}

@@ -328,6 +328,7 @@ fn compare_gathers_chunked(
             media_light_samples,
             vsl_tree: if light_samples > 0 { &vsl_tree.nodes } else { &[] },
             vbl_tree: if light_samples > 0 { &vbl_tree.nodes } else { &[] },
+            inject_nan: false,
         };
         let clock = Instant::now();
         let g = backend

@@ -55,7 +55,7 @@ fn options(method: Method, (width, height): (u32, u32), budget: Budget, seed: u3
 /// on the way (`many_lights::admit`: a NaN or sign bug would otherwise only show as missing
 /// light).
 fn assert_sane(r: &RenderResult, what: &str) {
-    let discarded = r.discarded();
+    let discarded = r.discarded;
     assert!(
         discarded.iter().all(|&n| n == 0),
         "{what}: estimates discarded per component {discarded:?}"

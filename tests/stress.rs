@@ -87,7 +87,7 @@ fn options(method: Method, w: u32, passes: u64, gpu: Option<Arc<GpuBackend>>) ->
 /// the estimators' guard on the way (`many_lights::admit`, which would otherwise turn a NaN or
 /// sign bug into quietly missing light).
 fn assert_finite(what: &str, r: &RenderResult) {
-    let discarded = r.discarded();
+    let discarded = r.discarded;
     assert!(
         discarded.iter().all(|&n| n == 0),
         "{what}: estimates discarded per component {discarded:?}"
@@ -400,6 +400,7 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             media_light_samples: 0,
             vsl_tree: &[],
             vbl_tree: &[],
+            inject_nan: false,
         };
         let g = backend
             .gathers

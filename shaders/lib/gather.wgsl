@@ -81,6 +81,8 @@ struct GatherParams {
     light_samples: u32,
     vsl_tree_nodes: u32,
     vbl_tree_nodes: u32,
+    // Fault injection for the discard counters' tests: 0, or a NaN's bits.
+    poison: u32,
 }
 
 // `components::SHARP_PHASE_G`: HG media at least this anisotropic are sharp, and a camera
@@ -131,6 +133,15 @@ fn admit(v: vec3<f32>, discarded: ptr<function, u32>) -> vec3<f32> {
         return max(v, vec3<f32>(0.0));
     }
     return vec3<f32>(0.0);
+}
+
+// `many_lights::injected`: the record's estimate, or the injected NaN for the pass's first record
+// (`GatherParams::poison`).
+fn injected(v: vec3<f32>, record: u32) -> vec3<f32> {
+    if params.poison != 0u && params.record_offset + record == 0u {
+        return vec3<f32>(bitcast<f32>(params.poison));
+    }
+    return v;
 }
 
 fn is_black(c: vec3<f32>) -> bool {

@@ -228,6 +228,11 @@ struct RenderArgs {
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
     alpha: f32,
+    /// Testing only (hidden): the many-light methods poison the first record of each gather
+    /// of every pass with a NaN, on the CPU and the GPU, so that a test can read the discard
+    /// counts back through `--stats`, `--stats-json` and the EXR header.
+    #[arg(long, hide = true)]
+    inject_nan: bool,
     /// Save the accumulators (running sums, pass count, settings) to FILE every
     /// `--write-every` seconds (default 60) and at the end, atomically.
     #[arg(long, value_name = "FILE")]
@@ -471,6 +476,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             // The method decides between rays and beams; `auto` picks the components.
             lights: Default::default(),
             components: [true; Component::ALL.len()],
+            inject_nan: args.inject_nan,
         },
         gpu,
     };
@@ -503,12 +509,15 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         .or_else(|| range_start.map(|_| runs::default_accum_path(&args.output)));
     let accum_first = resumed.as_ref().map_or(opts.first_pass, |a| a.first_pass);
     let accumulators =
-        |film: &Film, components: &[Film], auto: Option<&AutoSums>| beamlight_render::accum::Accumulators {
-            fingerprint: fingerprint.clone(),
-            first_pass: accum_first,
-            film: film.clone(),
-            components: components.to_vec(),
-            auto: auto.cloned(),
+        |film: &Film, components: &[Film], auto: Option<&AutoSums>, discarded: &[u64; Component::ALL.len()]| {
+            beamlight_render::accum::Accumulators {
+                fingerprint: fingerprint.clone(),
+                first_pass: accum_first,
+                film: film.clone(),
+                components: components.to_vec(),
+                auto: auto.cloned(),
+                discarded: *discarded,
+            }
         };
     runs::catch_interrupts();
     let startup = start.elapsed();
@@ -551,7 +560,7 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             && last_checkpoint.elapsed().as_secs_f64() >= checkpoint_every
             && write_error.is_none()
         {
-            write_error = accumulators(p.film, p.components, p.auto_sums)
+            write_error = accumulators(p.film, p.components, p.auto_sums, &p.discarded)
                 .write(path)
                 .err()
                 .map(anyhow::Error::from);
@@ -569,13 +578,13 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
     outputs.write(
         &result.film,
         &result.components,
-        &result.discarded(),
+        &result.discarded,
         result.auto.as_ref(),
         result.elapsed,
     )?;
     if let Some(path) = &accum_path {
         let sums = result.auto.as_ref().and_then(|r| r.sums.as_ref());
-        accumulators(&result.film, &result.components, sums).write(path)?;
+        accumulators(&result.film, &result.components, sums, &result.discarded).write(path)?;
     }
     let secs = result.elapsed.as_secs_f64();
     if result.film.rejected > 0 {
@@ -584,14 +593,14 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             result.film.rejected
         );
     }
-    if result.discarded().iter().any(|&n| n > 0) {
+    if result.discarded.iter().any(|&n| n > 0) {
         eprintln!(
             "warning: estimates that were NaN, infinite or negative were discarded ({}; please report this scene)",
-            discarded_summary(&result.discarded())
+            discarded_summary(&result.discarded)
         );
     }
     if args.stats {
-        print_stats(&result.pass_times);
+        print_stats(&result.pass_times, &result.discarded);
         if let Some(report) = &result.auto {
             eprintln!("auto, per component (a path-traced sample may serve several):");
             for line in report.lines() {
@@ -760,7 +769,7 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
 }
 
 /// Discarded estimates per component, e.g. "Lsm 0, Lmm 3": every component, in order.
-fn discarded_summary(discarded: &[u64]) -> String {
+pub(crate) fn discarded_summary(discarded: &[u64]) -> String {
     Component::ALL
         .iter()
         .zip(discarded)
@@ -772,7 +781,7 @@ fn discarded_summary(discarded: &[u64]) -> String {
 /// The `--stats` timeline summary: per pass, how long the CPU and the GPU were busy and how
 /// long the CPU waited. With a GPU, one pass is in flight: the CPU traces and estimates pass
 /// i + 1 while the GPU gathers pass i, so busy times can add up to more than the wall time.
-fn print_stats(times: &[PassTimes]) {
+fn print_stats(times: &[PassTimes], discarded: &[u64]) {
     if times.is_empty() {
         eprintln!("stats: no many-light passes");
         return;
@@ -820,9 +829,10 @@ fn print_stats(times: &[PassTimes]) {
     if walk_points + walk_segments > 0.0 {
         eprintln!("  walks through sharp media per pass: {walk_points:.0} points, {walk_segments:.0} segments");
     }
+    // The whole render's, a continued checkpoint's passes included (the rest is this run's).
     eprintln!(
         "  discarded estimates (NaN, ∞ or < 0): {}",
-        discarded_summary(&beamlight_render::progressive::discarded(times))
+        discarded_summary(discarded)
     );
 }
 
@@ -847,7 +857,7 @@ fn stats_json(
         _ => VirtualLights::Rays,
     });
     let gpu_component = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
-    let discarded = result.discarded();
+    let discarded = result.discarded;
     let mut components = serde_json::Map::new();
     for (k, c) in Component::ALL.iter().enumerate() {
         let gpu: f64 = kernels

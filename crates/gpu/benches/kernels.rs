@@ -120,6 +120,7 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
         media_light_samples: 0,
         vsl_tree: &[],
         vbl_tree: &[],
+        inject_nan: false,
     };
     b.gathers
         .run(
@@ -202,6 +203,7 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
         media_light_samples: samples,
         vsl_tree: &vsl_tree.nodes,
         vbl_tree: &vbl_tree.nodes,
+        inject_nan: false,
         ..*all
     };
     let mut run = [false; beamlight_gpu::gather::KERNELS];

@@ -159,6 +159,9 @@ pub struct GatherInputs<'a> {
     /// The pass's light trees over `vpls` and `vrls` (empty without light selection).
     pub vsl_tree: &'a [LightTreeNode],
     pub vbl_tree: &'a [LightTreeNode],
+    /// Fault injection for the discard counters' tests (`ManyLightSettings::inject_nan` in
+    /// the render crate): each kernel's first record of the pass estimates NaN.
+    pub inject_nan: bool,
 }
 
 impl GatherInputs<'_> {
@@ -366,6 +369,7 @@ impl Gathers {
                     light_samples: samples,
                     vsl_tree_nodes: inputs.vsl_tree.len() as u32,
                     vbl_tree_nodes: inputs.vbl_tree.len() as u32,
+                    poison: if inputs.inject_nan { f32::NAN.to_bits() } else { 0 },
                 };
                 let params = compute::uniform(gpu, "gather params", &params);
                 // This chunk's records; of the other kind's array (unused) just its start.

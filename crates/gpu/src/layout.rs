@@ -162,6 +162,10 @@ pub struct GatherParams {
     /// Nodes of the VSL tree, first in the tree binding, and of the VBL tree after it.
     pub vsl_tree_nodes: u32,
     pub vbl_tree_nodes: u32,
+    /// Fault injection (`GatherInputs::inject_nan`): 0, or the bits of the NaN that the pass's
+    /// first record estimates instead of its gather (a NaN from the CPU, not a WGSL constant,
+    /// which the shader compiler may fold or reject).
+    pub poison: u32,
 }
 
 /// `GatherParams::angular_pdf`: the paper's vertex values (at ω'_max).

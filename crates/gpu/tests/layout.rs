@@ -107,7 +107,8 @@ fn gather_structs_match() {
             record_offset,
             light_samples,
             vsl_tree_nodes,
-            vbl_tree_nodes
+            vbl_tree_nodes,
+            poison
         ]
     );
     check!(

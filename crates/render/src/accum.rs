@@ -18,6 +18,7 @@ use std::{
 };
 
 const MAGIC: &[u8; 8] = b"BLACCUM1";
+const N: usize = crate::components::Component::ALL.len();
 
 /// FNV-1a, 64 bits: a stable content hash for fingerprints (accumulators, the benchmark's
 /// reference cache), not a security hash. Std's hasher may change between Rust versions.
@@ -66,6 +67,10 @@ struct Header {
     height: u32,
     films: u32,
     rejected: Vec<u64>,
+    /// Estimates discarded per component (`Component::ALL` order); absent in files written
+    /// before the count was kept, which read as none.
+    #[serde(default)]
+    discarded: Vec<u64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     auto: Option<AutoHeader>,
 }
@@ -96,6 +101,10 @@ pub struct Accumulators {
     pub components: Vec<Film>,
     /// `--method auto`: the two estimators' sums, which `film` and `components` combine.
     pub auto: Option<AutoSums>,
+    /// Estimates discarded per component over the passes held
+    /// ([`crate::many_lights::PassTimes::discarded`]), so that a resumed or merged render
+    /// reports what the whole one would.
+    pub discarded: [u64; N],
 }
 
 impl Accumulators {
@@ -139,6 +148,7 @@ impl Accumulators {
             height: self.film.height,
             films: regular,
             rejected: films[..regular as usize].iter().map(|f| f.rejected).collect(),
+            discarded: self.discarded.to_vec(),
             auto,
         };
         let json = serde_json::to_vec(&header).expect("the header serialises");
@@ -172,9 +182,13 @@ impl Accumulators {
         if h.films == 0 || h.rejected.len() != h.films as usize || pixels == 0 {
             return Err(err(path, "bad header: no films"));
         }
+        let discarded = match h.discarded.len() {
+            0 => [0; N],
+            n if n == N => std::array::from_fn(|k| h.discarded[k]),
+            n => return Err(err(path, format!("bad header: {n} discard counts for {N} components"))),
+        };
         let body = &bytes[12 + len..];
         let film_bytes = pixels * 48;
-        const N: usize = crate::components::Component::ALL.len();
         if let Some(a) = &h.auto
             && (a.samples.len() != 2 * N
                 || a.rejected.len() != 2 * N
@@ -243,6 +257,7 @@ impl Accumulators {
             film,
             components: films,
             auto,
+            discarded,
         })
     }
 
@@ -285,6 +300,9 @@ impl Accumulators {
         let (_, mut merged) = iter.next().expect("one part at least");
         for (_, part) in iter {
             merged.film.add_film(&part.film);
+            for (a, b) in merged.discarded.iter_mut().zip(part.discarded) {
+                *a += b;
+            }
             for (a, b) in merged.components.iter_mut().zip(&part.components) {
                 a.add_film(b);
             }
@@ -465,6 +483,7 @@ mod tests {
             film: film(3, 2, 4, 0.5),
             components: vec![film(3, 2, 4, 0.25), film(3, 2, 4, 0.0)],
             auto: None,
+            discarded: [0, 3, 0, 1, 0, 0, 7],
         };
         acc.write(&path).unwrap();
         let back = Accumulators::read(&path).unwrap();
@@ -475,6 +494,7 @@ mod tests {
         assert_eq!(back.film.sums(), acc.film.sums());
         assert_eq!(back.components.len(), 2);
         assert_eq!(back.components[0].sums(), acc.components[0].sums());
+        assert_eq!(back.discarded, acc.discarded);
         // Truncated, or not an accumulator file at all: an error naming the file.
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() - 8]).unwrap();
@@ -497,9 +517,11 @@ mod tests {
             film: film(2, 2, passes, first as f32),
             components: Vec::new(),
             auto: None,
+            discarded: [first, 0, 0, 0, 0, 0, 1],
         };
         let (m, cov) = Accumulators::merge(vec![("b".into(), part(3, 2)), ("a".into(), part(0, 3))], None).unwrap();
         assert_eq!((m.first_pass, m.passes()), (0, 5));
+        assert_eq!(m.discarded, [3, 0, 0, 0, 0, 0, 2], "the parts' discard counts add up");
         assert_eq!(cov.missing, Vec::<Range<u64>>::new());
         assert_eq!(
             cov.to_string(),

@@ -449,12 +449,13 @@ fn combine(pt: &Film, vbl: &Film, a: f64) -> (Image, Image) {
 
 /// Renders with `--method auto` (see the module documentation). `vbl` holds the resolved
 /// settings of the `vbl` passes; `resume`, the sums and step count of a checkpoint to
-/// continue.
+/// continue, and `discarded` its estimates discarded so far.
 pub fn render(
     ts: &TraceScene,
     opts: &RenderOptions,
     vbl: &ManyLightSettings,
     resume: Option<(&AutoSums, u64)>,
+    mut discarded: [u64; N],
     mut on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
     let (w, h) = (opts.width, opts.height);
@@ -488,7 +489,6 @@ pub fn render(
     let mut pt_components = vec![vec![Rgb::ZERO; pixels]; N];
     let mut vbl_out: [Vec<Rgb>; N] = std::array::from_fn(|_| vec![Rgb::ZERO; pixels]);
     let mut pass_times = Vec::new();
-    let mut discarded = [0u64; N];
     let mut steps = 0u64;
     // Steps of the checkpoint continued: the combined films count every step.
     let passes_before = resume.map_or(0, |(_, passes)| passes);
@@ -619,6 +619,7 @@ pub fn render(
         elapsed: started.elapsed(),
         pass_times,
         auto: Some(report),
+        discarded,
     })
 }
 

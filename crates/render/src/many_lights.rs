@@ -89,6 +89,12 @@ pub struct ManyLightSettings {
     /// the others stay zero and cost nothing. `--method auto` leaves out those the path
     /// tracer serves better ([`crate::auto`]).
     pub components: [bool; N],
+    /// Fault injection for the discard counters' tests (`--inject-nan`, hidden): the first
+    /// record of each gather that runs in a pass (direct light, each virtual-light kernel on
+    /// the CPU or the GPU, each caustic lookup) has its estimate replaced by NaN, which
+    /// [`admit`] must count. Never on in a real render; part of the fingerprint, so a
+    /// checkpoint from a poisoned render cannot continue a clean one.
+    pub inject_nan: bool,
 }
 
 /// Lights a gather record draws per component by default (`--light-samples`; more draws with
@@ -153,6 +159,7 @@ impl Default for ManyLightSettings {
             caustic_paths: None,
             beam_paths: DEFAULT_BEAM_PATHS,
             components: [true; N],
+            inject_nan: false,
         }
     }
 }
@@ -438,6 +445,7 @@ pub fn start_pass(
                 vbl: settings.vbl,
                 light_samples: selection.as_ref().map_or(0, |s| s.k),
                 media_light_samples: selection.as_ref().map_or(0, |s| s.k_media),
+                inject_nan: settings.inject_nan,
                 vsl_tree: selection.as_ref().map_or(&[], |s| &s.vsls.nodes),
                 vbl_tree: selection.as_ref().map_or(&[], |s| &s.vbls.nodes),
             },
@@ -464,7 +472,7 @@ pub fn start_pass(
     let mut discarded = 0;
     for k in 0..if on(Component::Direct) { direct_samples } else { 0 } {
         if k == 0 {
-            discarded += direct_light(ts, &gather, seed, pass, direct);
+            discarded += direct_light(ts, &gather, seed, pass, settings.inject_nan, direct);
             continue;
         }
         let seed_k = direct_seed(seed, k);
@@ -473,7 +481,7 @@ pub fn start_pass(
             ..Default::default()
         };
         let extra = trace_camera_paths(ts, &direct_only, w, h, seed_k, pass);
-        discarded += direct_light(ts, &extra, seed_k, pass, direct);
+        discarded += direct_light(ts, &extra, seed_k, pass, false, direct);
     }
     times.discarded[Component::Direct as usize] = discarded;
     let scale = 1.0 / direct_samples as f32;
@@ -489,6 +497,8 @@ pub fn start_pass(
     // Each gather point against every virtual light: the sum over a light set divided by its
     // path count M is the per-pass estimate.
     let (clamp, vbl) = (settings.clamp, &settings.vbl);
+    // `inject_nan`: the gather over `lights` poisons its first record (as the GPU's does).
+    let poison = |i: usize, lights: usize| settings.inject_nan && i == 0 && lights > 0;
     let at_points: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = points
         .par_iter()
         .enumerate()
@@ -521,7 +531,7 @@ pub fn start_pass(
                         }
                     });
                     let k = credited(Component::Lss, credit) as usize;
-                    c[k] += admit(v / m, &mut dp[k]);
+                    c[k] += admit(injected(v / m, poison(i, lights.vpls.len())), &mut dp[k]);
                 }
                 if want(Component::Lsm) {
                     let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vbls, rx));
@@ -534,12 +544,13 @@ pub fn start_pass(
                         }
                     });
                     let k = credited(Component::Lsm, credit) as usize;
-                    c[k] += admit(v / m, &mut dp[k]);
+                    c[k] += admit(injected(v / m, poison(i, lights.vrls.len())), &mut dp[k]);
                 }
             }
             if !photons.is_empty() {
                 let k = credited(Component::CausticSurface, credit) as usize;
-                c[k] += admit(timed(&mut t[k], || photons.radiance(ts, sp) / m_photons), &mut dp[k]);
+                let v = timed(&mut t[k], || photons.radiance(ts, sp) / m_photons);
+                c[k] += admit(injected(v, poison(i, 1)), &mut dp[k]);
             }
             (sp.pixel, c, t, dp)
         })
@@ -579,7 +590,7 @@ pub fn start_pass(
                         }
                     });
                     let k = credited(Component::Lms, credit) as usize;
-                    c[k] += admit(v / m, &mut dp[k]);
+                    c[k] += admit(injected(v / m, poison(i, lights.vpls.len())), &mut dp[k]);
                 }
                 if want(Component::Lmm) {
                     let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vbls, rx));
@@ -592,15 +603,13 @@ pub fn start_pass(
                         }
                     });
                     let k = credited(Component::Lmm, credit) as usize;
-                    c[k] += admit(v / m, &mut dp[k]);
+                    c[k] += admit(injected(v / m, poison(i, lights.vrls.len())), &mut dp[k]);
                 }
             }
             if !beams.is_empty() {
                 let k = credited(Component::CausticVolume, credit) as usize;
-                c[k] += admit(
-                    timed(&mut t[k], || beams.radiance(ts, seg, &mut s) / m_beams),
-                    &mut dp[k],
-                );
+                let v = timed(&mut t[k], || beams.radiance(ts, seg, &mut s) / m_beams);
+                c[k] += admit(injected(v, poison(i, 1)), &mut dp[k]);
             }
             (seg.pixel, c, t, dp)
         })
@@ -647,8 +656,9 @@ fn direct_seed(seed: u32, k: u32) -> u32 {
 
 /// Adds one camera sample's direct light to `out`, per pixel: emission seen directly (also
 /// through specular chains) and next-event estimation at each of its records, whose streams
-/// are keyed by `seed`. Returns how many estimates it discarded ([`admit`]).
-fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: &mut [Rgb]) -> u64 {
+/// are keyed by `seed`. Returns how many estimates it discarded ([`admit`]); `inject_nan`
+/// poisons the first record's ([`ManyLightSettings::inject_nan`]).
+fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, inject_nan: bool, out: &mut [Rgb]) -> u64 {
     let stream = |kind: u32, i: usize| direct_stream(seed, pass, kind, i);
     for (o, e) in out.iter_mut().zip(&gather.emitted) {
         *o += *e;
@@ -666,10 +676,15 @@ fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, out: 
         .map(|(i, seg)| (seg.pixel, direct::direct_in_medium(ts, seg, &mut stream(1, i))))
         .collect();
     let mut discarded = 0;
-    for (pixel, v) in at_points.into_iter().chain(along_segments) {
-        out[pixel as usize] += admit(v, &mut discarded);
+    for (i, (pixel, v)) in at_points.into_iter().chain(along_segments).enumerate() {
+        out[pixel as usize] += admit(injected(v, inject_nan && i == 0), &mut discarded);
     }
     discarded
+}
+
+/// Fault injection ([`ManyLightSettings::inject_nan`]): `v`, or NaN when `poison`.
+fn injected(v: Rgb, poison: bool) -> Rgb {
+    if poison { Rgb::splat(f32::NAN) } else { v }
 }
 
 /// One pass's light trees and the lights each record draws from each.

@@ -83,24 +83,9 @@ pub struct RenderResult {
     pub pass_times: Vec<PassTimes>,
     /// `--method auto`: where each component's estimate came from.
     pub auto: Option<crate::auto::AutoReport>,
-}
-
-impl RenderResult {
-    /// Estimates discarded per component over the render ([`PassTimes::discarded`]).
-    pub fn discarded(&self) -> [u64; Component::ALL.len()] {
-        discarded(&self.pass_times)
-    }
-}
-
-/// Estimates discarded per component over `passes` ([`PassTimes::discarded`]).
-pub fn discarded(passes: &[PassTimes]) -> [u64; Component::ALL.len()] {
-    let mut total = [0u64; Component::ALL.len()];
-    for t in passes {
-        for (sum, d) in total.iter_mut().zip(t.discarded) {
-            *sum += d;
-        }
-    }
-    total
+    /// Estimates discarded per component over the whole render ([`PassTimes::discarded`]):
+    /// its passes and those of the checkpoint it continued.
+    pub discarded: [u64; Component::ALL.len()],
 }
 
 /// The state of a render after a pass, handed to the caller (progress display, intermediate
@@ -113,7 +98,8 @@ pub struct Progress<'a> {
     /// Per-component films (empty unless `RenderOptions::components`).
     pub components: &'a [Film],
     pub elapsed: Duration,
-    /// Estimates discarded so far, per component ([`PassTimes::discarded`]).
+    /// Estimates discarded so far, per component ([`PassTimes::discarded`]), a continued
+    /// checkpoint's included.
     pub discarded: [u64; Component::ALL.len()],
     /// `--method auto`: where each component's estimate came from so far, and the running
     /// sums behind it (for checkpoints).
@@ -158,7 +144,11 @@ pub fn render_from(
             many_lights::default_radius(&ts.scene)
         },
         // Without mirrors or glass there are no caustics: no light paths for them.
-        caustic_paths: if specular { opts.many_lights.caustic_paths } else { Some(0) },
+        caustic_paths: if specular {
+            opts.many_lights.caustic_paths
+        } else {
+            Some(0)
+        },
         beam_paths: if specular { opts.many_lights.beam_paths } else { 0 },
         photon_radius: if opts.many_lights.photon_radius > 0.0 {
             opts.many_lights.photon_radius
@@ -177,7 +167,8 @@ pub fn render_from(
             )),
             None => None,
         };
-        return crate::auto::render(ts, opts, &many_light_settings, sums, on_pass);
+        let discarded = resume.map_or([0; Component::ALL.len()], |acc| acc.discarded);
+        return crate::auto::render(ts, opts, &many_light_settings, sums, discarded, on_pass);
     }
     let (w, h) = (opts.width, opts.height);
     let mut film = Film::new(w, h);
@@ -210,7 +201,7 @@ pub fn render_from(
     };
     let mut passes = 0u64;
     let mut pass_times = Vec::new();
-    let mut discarded_so_far = [0u64; Component::ALL.len()];
+    let mut discarded_so_far = resume.map_or([0; Component::ALL.len()], |acc| acc.discarded);
     // Passes started; with the many-light methods one pass is in flight (its GPU gathers
     // running) while the next one is traced and estimated on the CPU.
     let mut started_passes = 0u64;
@@ -320,6 +311,7 @@ pub fn render_from(
         elapsed: started.elapsed(),
         pass_times,
         auto: None,
+        discarded: discarded_so_far,
     })
 }
 
