@@ -59,7 +59,9 @@ fn bundled_scenes_render_finite_images_with_metadata() {
                 std::env::var_os("CI").is_none(),
                 "assets/scenes/cars.glb is missing: `cargo xtask ci` generates it (`cargo xtask assets`)"
             );
-            eprintln!("skipping cars: run `cargo xtask assets` to generate assets/scenes/cars.glb");
+            beamlight_gpu::device::report_skipped_test(
+                "no assets/scenes/cars.glb; run `cargo xtask assets` to generate it",
+            );
             continue;
         }
         for method in METHODS {
@@ -140,7 +142,7 @@ fn same_seed_same_image_on_any_number_of_threads_and_either_backend() {
             !beamlight_gpu::device::required_by_environment(),
             "CI=true and no Vulkan adapter"
         );
-        eprintln!("no Vulkan adapter: the GPU backend's half is skipped (apt-get install mesa-vulkan-drivers)");
+        beamlight_gpu::device::report_skipped_test(&format!("no Vulkan adapter; {}", beamlight_gpu::device::LAVAPIPE));
     }
     let layers = |method: &str, backend: &str, threads: &str| {
         let out = dir.path().join(format!("{method}-{backend}-{threads}.exr"));
@@ -711,7 +713,7 @@ fn backend_choice_with_and_without_an_adapter() {
             !beamlight_gpu::device::required_by_environment(),
             "CI=true and no Vulkan adapter"
         );
-        eprintln!("skipping the with-adapter half: no Vulkan adapter (apt-get install mesa-vulkan-drivers)");
+        beamlight_gpu::device::report_skipped_test(&format!("no Vulkan adapter; {}", beamlight_gpu::device::LAVAPIPE));
         return;
     }
     let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
@@ -1104,7 +1106,7 @@ fn injected_nans_are_counted_through_every_output() {
             !beamlight_gpu::device::required_by_environment(),
             "CI=true and no Vulkan adapter"
         );
-        eprintln!("no Vulkan adapter: the GPU kernels' injected NaNs are not checked");
+        beamlight_gpu::device::report_skipped_test(&format!("no Vulkan adapter; {}", beamlight_gpu::device::LAVAPIPE));
     }
     for method in ["vbl", "vrl"] {
         for backend in if gpu { &["cpu", "gpu"][..] } else { &["cpu"][..] } {

@@ -24,7 +24,9 @@ fn load(name: &str) -> Option<TraceScene> {
             std::env::var_os("CI").is_none(),
             "assets/scenes/cars.glb is missing: `cargo xtask ci` generates it (`cargo xtask assets`)"
         );
-        eprintln!("skipping {name}: run `cargo xtask assets` to generate assets/scenes/cars.glb");
+        beamlight_gpu::device::report_skipped_test(&format!(
+            "{name} needs assets/scenes/cars.glb; run `cargo xtask assets` to generate it"
+        ));
         return None;
     }
     let scene = load_scene(&path).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -172,11 +172,24 @@ pub fn for_tests() -> Option<Gpu> {
     match Gpu::open() {
         Ok(gpu) => Some(gpu),
         Err(e) if !required_by_environment() => {
-            eprintln!("skipping GPU test: {e}");
+            report_skipped_test(&e.to_string());
             None
         }
         Err(e) => panic!("CI=true and no GPU: {e}"),
     }
+}
+
+/// How to get a Vulkan adapter on a machine without a GPU.
+pub const LAVAPIPE: &str = "install lavapipe (apt-get install mesa-vulkan-drivers) to run it";
+
+/// Tells the person running `cargo test` that the current test, or part of it, did not run and
+/// why (`reason`, with the remedy). Written to the process's stderr directly: the test harness
+/// captures `eprintln!` and shows it only for failing tests, so a skipped test would read as a
+/// passed one.
+pub fn report_skipped_test(reason: &str) {
+    use std::io::Write;
+    let test = std::thread::current().name().unwrap_or("a test").to_string();
+    let _ = writeln!(std::io::stderr(), "SKIPPED (all or part of) {test}: {reason}");
 }
 
 /// Whether an adapter runs on the CPU (lavapipe, SwiftShader): its kernels then share the
