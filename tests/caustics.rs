@@ -186,7 +186,11 @@ fn all_components_add_up_to_the_path_tracers_image() {
     let run = render_with_errors(&ts, &opts, 16);
     let result = &run.result;
     assert_eq!(result.film.rejected, 0);
-    assert_eq!(result.discarded, [0; 7], "estimates discarded per component");
+    assert_eq!(
+        result.discarded,
+        Default::default(),
+        "estimates discarded per component, light paths dropped"
+    );
     // Every component within 4 standard errors of the path tracer's (batch means of both). The
     // caustics also have their own longer test above; here their few photons make the errors
     // wide (a surface caustic is 2 % of the image), so the check is coarse for them.

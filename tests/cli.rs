@@ -1103,12 +1103,15 @@ fn injected_nans_are_counted_through_every_output() {
         assert!(o.status.success(), "{method} {backend} {extra:?}: {}", stderr(&o));
         stderr(&o)
     };
+    // One per component and pass, and one light path of each of a pass's three light sets
+    // (the gathers', the caustic photons', the photon beams').
     let expected = |passes: u64| {
-        Component::ALL
+        let estimates = Component::ALL
             .iter()
             .map(|c| format!("{} {passes}", c.name()))
             .collect::<Vec<_>>()
-            .join(", ")
+            .join(", ");
+        format!("{estimates}; light paths {}", 3 * passes)
     };
     // The EXR header's count, and the JSON's per component.
     let header = |out: &str| {
@@ -1118,14 +1121,17 @@ fn injected_nans_are_counted_through_every_output() {
             .unwrap_or_else(|| panic!("{out}: no beamlight.discarded_estimates"))
             .1
     };
+    // The JSON's per component, then its dropped light paths.
     let json = |out: &str| -> Vec<u64> {
         let text = std::fs::read_to_string(p(&format!("{out}.json"))).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         Component::ALL
             .iter()
             .map(|c| v["components"][c.name()]["discarded"].as_u64().unwrap())
+            .chain([v["dropped_light_paths"].as_u64().unwrap()])
             .collect()
     };
+    let json_want = |passes: u64| [vec![passes; Component::ALL.len()], vec![3 * passes]].concat();
     let gpu = !beamlight_gpu::device::adapters().is_empty();
     if !gpu {
         assert!(
@@ -1143,9 +1149,9 @@ fn injected_nans_are_counted_through_every_output() {
                 log.contains(&format!("discarded estimates (NaN, ∞ or < 0): {want}")),
                 "{method} {backend} --stats: {log}"
             );
-            assert!(log.contains("warning: estimates that were NaN"), "{log}");
+            assert!(log.contains("warning: estimates or light paths that were NaN"), "{log}");
             assert_eq!(header(&out), want, "{method} {backend}: EXR header");
-            assert_eq!(json(&out), vec![3; Component::ALL.len()], "{method} {backend}: JSON");
+            assert_eq!(json(&out), json_want(3), "{method} {backend}: JSON");
         }
     }
     // Resumed: 2 passes checkpointed, then continued to 5.
@@ -1163,7 +1169,7 @@ fn injected_nans_are_counted_through_every_output() {
         "{log}"
     );
     assert_eq!(header("run.exr"), expected(5), "resumed: EXR header");
-    assert_eq!(json("run.exr"), vec![5; Component::ALL.len()], "resumed: JSON");
+    assert_eq!(json("run.exr"), json_want(5), "resumed: JSON");
     // Split into pass ranges and merged.
     run("vbl", "cpu", "a.exr", &["--passes", "0..2"]);
     run("vbl", "cpu", "b.exr", &["--passes", "2..5"]);

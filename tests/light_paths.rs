@@ -192,9 +192,58 @@ fn a_trace_keeping_some_records_stores_exactly_those_of_the_full_trace() {
         assert_eq!(part.paths, full.paths);
         assert_eq!(part.vrls, if keep.vrls { full.vrls.clone() } else { vec![] });
         assert_eq!(part.vpls, if keep.vpls { full.vpls.clone() } else { vec![] });
-        let photons = if keep.caustic_photons { full.caustic_photons.clone() } else { vec![] };
+        let photons = if keep.caustic_photons {
+            full.caustic_photons.clone()
+        } else {
+            vec![]
+        };
         assert_eq!(part.caustic_photons, photons);
-        let beams = if keep.photon_beams { full.photon_beams.clone() } else { vec![] };
+        let beams = if keep.photon_beams {
+            full.photon_beams.clone()
+        } else {
+            vec![]
+        };
         assert_eq!(part.photon_beams, beams);
+    }
+}
+
+/// A light path whose power turns NaN (here at a Lambert floor with a NaN albedo, under a
+/// point lamp) is counted in `nonfinite_paths`, which the renders report as dropped light
+/// paths, instead of ending unseen. Each path that reaches the floor leaves its vertex there
+/// (with the power it arrived with, still finite) and then dies: exactly one count per floor
+/// vertex. The same with a sane albedo: none. (Before the count existed, such paths vanished;
+/// made to fail by not counting the roulette's non-finite exit: 0 counted.)
+#[test]
+fn a_path_whose_power_turns_nan_is_counted() {
+    for (albedo, broken) in [(f32::NAN, true), (0.5, false)] {
+        let mut s = empty_scene(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 40.0, 4, 4);
+        let floor = add_material(
+            &mut s,
+            material(
+                "floor",
+                Some(Bsdf::Lambert {
+                    albedo: Rgb::splat(albedo),
+                }),
+                Rgb::ZERO,
+                false,
+            ),
+        );
+        add_quad(
+            &mut s,
+            Vec3::new(-5.0, -5.0, 0.0),
+            Vec3::X * 10.0,
+            Vec3::Y * 10.0,
+            floor,
+        );
+        s.lights.push(PunctualLight::Point {
+            position: Vec3::new(0.0, 0.0, 1.0),
+            intensity: Rgb::ONE,
+        });
+        let ts = TraceScene::new(s);
+        let set = trace_light_paths(&ts, &LightTracerSettings::default(), 4000, 5, 0);
+        assert!(set.vpls.len() > 1000, "{} paths reached the floor", set.vpls.len());
+        assert!(set.vpls.iter().all(|v| Rgb::from(v.power).is_finite()));
+        let want = if broken { set.vpls.len() as u32 } else { 0 };
+        assert_eq!(set.nonfinite_paths, want, "albedo {albedo}");
     }
 }

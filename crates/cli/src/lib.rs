@@ -9,7 +9,7 @@ use beamlight_render::{
     auto::{AutoReport, AutoSums},
     compare,
     components::{Component, SceneFeatures},
-    many_lights::{self, ManyLightSettings, PassTimes, VirtualLights},
+    many_lights::{self, Discards, ManyLightSettings, PassTimes, VirtualLights},
     output,
 };
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
@@ -508,17 +508,16 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
         .clone()
         .or_else(|| range_start.map(|_| runs::default_accum_path(&args.output)));
     let accum_first = resumed.as_ref().map_or(opts.first_pass, |a| a.first_pass);
-    let accumulators =
-        |film: &Film, components: &[Film], auto: Option<&AutoSums>, discarded: &[u64; Component::ALL.len()]| {
-            beamlight_render::accum::Accumulators {
-                fingerprint: fingerprint.clone(),
-                first_pass: accum_first,
-                film: film.clone(),
-                components: components.to_vec(),
-                auto: auto.cloned(),
-                discarded: *discarded,
-            }
-        };
+    let accumulators = |film: &Film, components: &[Film], auto: Option<&AutoSums>, discarded: &Discards| {
+        beamlight_render::accum::Accumulators {
+            fingerprint: fingerprint.clone(),
+            first_pass: accum_first,
+            film: film.clone(),
+            components: components.to_vec(),
+            auto: auto.cloned(),
+            discarded: *discarded,
+        }
+    };
     runs::catch_interrupts();
     let startup = start.elapsed();
     let bar = progress_bar(&budget);
@@ -593,10 +592,10 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             result.film.rejected
         );
     }
-    if result.discarded.iter().any(|&n| n > 0) {
+    if result.discarded.any() {
         eprintln!(
-            "warning: estimates that were NaN, infinite or negative were discarded ({}; please report this scene)",
-            discarded_summary(&result.discarded)
+            "warning: estimates or light paths that were NaN, infinite or negative were discarded ({}; please report this scene)",
+            result.discarded
         );
     }
     if args.stats {
@@ -768,20 +767,10 @@ fn choose_backend(arg: BackendArg, method: Method, ts: &TraceScene) -> Result<(O
     })
 }
 
-/// Discarded estimates per component, e.g. "Lsm 0, Lmm 3": every component, in order.
-pub(crate) fn discarded_summary(discarded: &[u64]) -> String {
-    Component::ALL
-        .iter()
-        .zip(discarded)
-        .map(|(c, n)| format!("{} {n}", c.name()))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 /// The `--stats` timeline summary: per pass, how long the CPU and the GPU were busy and how
 /// long the CPU waited. With a GPU, one pass is in flight: the CPU traces and estimates pass
 /// i + 1 while the GPU gathers pass i, so busy times can add up to more than the wall time.
-fn print_stats(times: &[PassTimes], discarded: &[u64]) {
+fn print_stats(times: &[PassTimes], discarded: &Discards) {
     if times.is_empty() {
         eprintln!("stats: no many-light passes");
         return;
@@ -830,10 +819,7 @@ fn print_stats(times: &[PassTimes], discarded: &[u64]) {
         eprintln!("  walks through sharp media per pass: {walk_points:.0} points, {walk_segments:.0} segments");
     }
     // The whole render's, a continued checkpoint's passes included (the rest is this run's).
-    eprintln!(
-        "  discarded estimates (NaN, ∞ or < 0): {}",
-        discarded_summary(discarded)
-    );
+    eprintln!("  discarded estimates (NaN, ∞ or < 0): {discarded}");
 }
 
 /// The `--stats-json` record: what a benchmark needs to know about a run's time. Component
@@ -872,7 +858,7 @@ fn stats_json(
                 "needed": needed.contains(c),
                 "cpu_seconds": total(&|t| t.component_cpu[k]),
                 "gpu_seconds": gpu,
-                "discarded": discarded[k],
+                "discarded": discarded.estimates[k],
             }),
         );
     }
@@ -898,6 +884,7 @@ fn stats_json(
         "cpu_estimates_seconds": total(&|t| t.cpu_estimates.as_secs_f64()),
         "gpu_wait_seconds": total(&|t| t.gpu_wait.as_secs_f64()),
         "components": components,
+        "dropped_light_paths": discarded.light_paths,
         "auto": result.auto.as_ref().map(|r| {
             let per_component: serde_json::Map<String, serde_json::Value> = Component::ALL
                 .iter()
@@ -939,7 +926,7 @@ impl Outputs<'_> {
         &self,
         film: &Film,
         components: &[Film],
-        discarded: &[u64],
+        discarded: &Discards,
         auto: Option<&AutoReport>,
         elapsed: Duration,
     ) -> Result<()> {
@@ -955,7 +942,7 @@ impl Outputs<'_> {
             ("beamlight.scene", args.scene.display().to_string()),
             ("beamlight.backend", self.backend.to_string()),
             ("beamlight.rejected_samples", film.rejected.to_string()),
-            ("beamlight.discarded_estimates", discarded_summary(discarded)),
+            ("beamlight.discarded_estimates", discarded.to_string()),
         ];
         if let Some(report) = auto {
             metadata.push(("beamlight.auto", report.lines().join("; ")));

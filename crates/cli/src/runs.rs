@@ -148,10 +148,7 @@ pub fn merge(
         ("beamlight.first_pass", merged.first_pass.to_string()),
         ("beamlight.fingerprint", merged.fingerprint.clone()),
         ("beamlight.rejected_samples", merged.film.rejected.to_string()),
-        (
-            "beamlight.discarded_estimates",
-            crate::discarded_summary(&merged.discarded),
-        ),
+        ("beamlight.discarded_estimates", merged.discarded.to_string()),
     ];
     beamlight_render::output::write_exr_layers(output, &image, &named, &metadata)?;
     if let Some(p) = preview {

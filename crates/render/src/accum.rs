@@ -11,7 +11,7 @@
 //! its two estimators' films (`pt`'s components, then `vbl`'s), described in the header's
 //! `auto` entry; its beauty and component films hold the combination, which a merge computes
 //! again from the merged estimators.
-use crate::{Film, auto::AutoSums, auto::PassMeans, output};
+use crate::{Film, auto::AutoSums, auto::PassMeans, many_lights::Discards, output};
 use std::{
     ops::Range,
     path::{Path, PathBuf},
@@ -67,10 +67,12 @@ struct Header {
     height: u32,
     films: u32,
     rejected: Vec<u64>,
-    /// Estimates discarded per component (`Component::ALL` order); absent in files written
-    /// before the count was kept, which read as none.
+    /// Estimates discarded per component (`Component::ALL` order) and light paths dropped
+    /// ([`Discards`]); absent in files written before they were kept, which read as none.
     #[serde(default)]
     discarded: Vec<u64>,
+    #[serde(default)]
+    dropped_light_paths: u64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     auto: Option<AutoHeader>,
 }
@@ -101,10 +103,9 @@ pub struct Accumulators {
     pub components: Vec<Film>,
     /// `--method auto`: the two estimators' sums, which `film` and `components` combine.
     pub auto: Option<AutoSums>,
-    /// Estimates discarded per component over the passes held
-    /// ([`crate::many_lights::PassTimes::discarded`]), so that a resumed or merged render
-    /// reports what the whole one would.
-    pub discarded: [u64; N],
+    /// What the passes held had to leave out ([`Discards`]), so that a resumed or merged
+    /// render reports what the whole one would.
+    pub discarded: Discards,
 }
 
 impl Accumulators {
@@ -148,7 +149,8 @@ impl Accumulators {
             height: self.film.height,
             films: regular,
             rejected: films[..regular as usize].iter().map(|f| f.rejected).collect(),
-            discarded: self.discarded.to_vec(),
+            discarded: self.discarded.estimates.to_vec(),
+            dropped_light_paths: self.discarded.light_paths,
             auto,
         };
         let json = serde_json::to_vec(&header).expect("the header serialises");
@@ -182,10 +184,14 @@ impl Accumulators {
         if h.films == 0 || h.rejected.len() != h.films as usize || pixels == 0 {
             return Err(err(path, "bad header: no films"));
         }
-        let discarded = match h.discarded.len() {
+        let estimates = match h.discarded.len() {
             0 => [0; N],
             n if n == N => std::array::from_fn(|k| h.discarded[k]),
             n => return Err(err(path, format!("bad header: {n} discard counts for {N} components"))),
+        };
+        let discarded = Discards {
+            estimates,
+            light_paths: h.dropped_light_paths,
         };
         let body = &bytes[12 + len..];
         let film_bytes = pixels * 48;
@@ -300,9 +306,7 @@ impl Accumulators {
         let (_, mut merged) = iter.next().expect("one part at least");
         for (_, part) in iter {
             merged.film.add_film(&part.film);
-            for (a, b) in merged.discarded.iter_mut().zip(part.discarded) {
-                *a += b;
-            }
+            merged.discarded.add(&part.discarded);
             for (a, b) in merged.components.iter_mut().zip(&part.components) {
                 a.add_film(b);
             }
@@ -483,7 +487,10 @@ mod tests {
             film: film(3, 2, 4, 0.5),
             components: vec![film(3, 2, 4, 0.25), film(3, 2, 4, 0.0)],
             auto: None,
-            discarded: [0, 3, 0, 1, 0, 0, 7],
+            discarded: Discards {
+                estimates: [0, 3, 0, 1, 0, 0, 7],
+                light_paths: 2,
+            },
         };
         acc.write(&path).unwrap();
         let back = Accumulators::read(&path).unwrap();
@@ -517,11 +524,18 @@ mod tests {
             film: film(2, 2, passes, first as f32),
             components: Vec::new(),
             auto: None,
-            discarded: [first, 0, 0, 0, 0, 0, 1],
+            discarded: Discards {
+                estimates: [first, 0, 0, 0, 0, 0, 1],
+                light_paths: 1,
+            },
         };
         let (m, cov) = Accumulators::merge(vec![("b".into(), part(3, 2)), ("a".into(), part(0, 3))], None).unwrap();
         assert_eq!((m.first_pass, m.passes()), (0, 5));
-        assert_eq!(m.discarded, [3, 0, 0, 0, 0, 0, 2], "the parts' discard counts add up");
+        let want = Discards {
+            estimates: [3, 0, 0, 0, 0, 0, 2],
+            light_paths: 2,
+        };
+        assert_eq!(m.discarded, want, "the parts' discard counts add up");
         assert_eq!(cov.missing, Vec::<Range<u64>>::new());
         assert_eq!(
             cov.to_string(),

@@ -54,7 +54,7 @@ use crate::{
     Film, Image,
     components::SceneFeatures,
     film::mean_and_variance,
-    many_lights::{self, ManyLightSettings, PassTimes},
+    many_lights::{self, Discards, ManyLightSettings, PassTimes},
     progressive::{Budget, Progress, RenderOptions, RenderResult, path_trace_pass},
 };
 use beamlight_scene::Rgb;
@@ -455,7 +455,7 @@ pub fn render(
     opts: &RenderOptions,
     vbl: &ManyLightSettings,
     resume: Option<(&AutoSums, u64)>,
-    mut discarded: [u64; N],
+    mut discarded: Discards,
     mut on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
     let (w, h) = (opts.width, opts.height);
@@ -572,8 +572,8 @@ pub fn render(
                             est.vbl_means[k].push(&vbl_out[k]);
                             report.vbl_passes[k] += 1;
                         }
-                        discarded[k] += times.discarded[k];
                     }
+                    discarded.add(&times.discarded);
                     costs.add_vbl(&times, wall.as_secs_f64(), &mask);
                     report.vbl_seconds += wall.as_secs_f64();
                     pass_times.push(times);

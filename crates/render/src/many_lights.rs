@@ -92,7 +92,8 @@ pub struct ManyLightSettings {
     /// Fault injection for the discard counters' tests (`--inject-nan`, hidden): the first
     /// record of each gather that runs in a pass (direct light, each virtual-light kernel on
     /// the CPU or the GPU, each caustic lookup) has its estimate replaced by NaN, which
-    /// [`admit`] must count. Never on in a real render; part of the fingerprint, so a
+    /// [`admit`] must count, and the first path of each light set its power
+    /// ([`Discards::light_paths`]). Never on in a real render; part of the fingerprint, so a
     /// checkpoint from a poisoned render cannot continue a clean one.
     pub inject_nan: bool,
 }
@@ -228,10 +229,9 @@ pub struct PassTimes {
     /// in [`Component::ALL`] order. A component whose records or virtual lights are empty
     /// (no media segments, no VRLs in a scene without media) is not timed: it stays at 0.
     pub component_cpu: [f64; N],
-    /// Estimates discarded per component ([`admit`]: NaN, infinite or negative; on the CPU
-    /// and the GPU alike), in [`Component::ALL`] order. Zero in a sane scene: anything else is
-    /// a bug or a numerical breakdown that would otherwise only show as missing light.
-    pub discarded: [u64; N],
+    /// What the pass had to leave out ([`Discards`]). Zero in a sane scene: anything else is a
+    /// bug or a numerical breakdown that would otherwise only show as missing light.
+    pub discarded: Discards,
     /// Gather records of the pass: the camera's shading points and media segments, and the
     /// walks' through sharp media (`beamlight_trace::camera_paths`) points and segments.
     pub records: Records,
@@ -244,6 +244,41 @@ pub struct Records {
     pub media_segments: u64,
     pub walk_points: u64,
     pub walk_segments: u64,
+}
+
+/// What a render had to leave out, counted so that nothing is lost unseen: estimates that came
+/// out NaN, infinite or negative ([`admit`]; on the CPU and the GPU alike) per component, in
+/// [`Component::ALL`] order, and light paths ended because their power turned NaN or infinite
+/// ([`beamlight_trace::light_paths::LightSet::nonfinite_paths`], over the pass's light sets).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Discards {
+    pub estimates: [u64; N],
+    pub light_paths: u64,
+}
+
+impl Discards {
+    pub fn add(&mut self, other: &Discards) {
+        for (a, b) in self.estimates.iter_mut().zip(other.estimates) {
+            *a += b;
+        }
+        self.light_paths += other.light_paths;
+    }
+
+    /// Whether anything was left out.
+    pub fn any(&self) -> bool {
+        *self != Discards::default()
+    }
+}
+
+/// Every component's count in order, then the light paths': "direct 0, Lsm 3, …,
+/// caustic_volume 0; light paths 0" (`--stats`, the EXR header, warnings).
+impl std::fmt::Display for Discards {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (k, (c, n)) in Component::ALL.iter().zip(self.estimates).enumerate() {
+            write!(f, "{}{} {n}", if k > 0 { ", " } else { "" }, c.name())?;
+        }
+        write!(f, "; light paths {}", self.light_paths)
+    }
 }
 
 /// What may enter an accumulator: `v` when it is finite and non-negative; otherwise it counts
@@ -318,7 +353,7 @@ impl PassInFlight {
                         self.out[k][pixel as usize] += *v;
                     }
                 }
-                self.times.discarded[component as usize] += g.discarded[kernel as usize];
+                self.times.discarded.estimates[component as usize] += g.discarded[kernel as usize];
             }
         }
         for (dst, src) in out.iter_mut().zip(&self.out) {
@@ -364,13 +399,11 @@ pub fn start_pass(
     let segment_credits: Vec<Option<Component>> = std::iter::repeat_n(None, gather.media_segments.len())
         .chain(std::iter::repeat_n(Some(Component::Lmm), gather.walk_segments.len()))
         .collect();
-    let lights = trace_light_paths(
-        ts,
-        &LightTracerSettings::default(),
-        settings.light_paths_per_pass,
-        seed,
-        pass,
-    );
+    let poisoned_paths = LightTracerSettings {
+        inject_nan: settings.inject_nan,
+        ..Default::default()
+    };
+    let lights = trace_light_paths(ts, &poisoned_paths, settings.light_paths_per_pass, seed, pass);
     let m = lights.paths.max(1) as f32;
     let r2 = pass_squared_radius(settings.radius, settings, pass);
     // The caustics' own light paths, one set for the photons and one for the beams (their
@@ -378,10 +411,7 @@ pub fn start_pass(
     let caustic_set = |paths: u32, salt: u32, keep: Keep| {
         if paths > 0 {
             let seed_c = beamlight_scene::rng::pcg_hash(seed ^ salt);
-            let tracer = LightTracerSettings {
-                keep,
-                ..Default::default()
-            };
+            let tracer = LightTracerSettings { keep, ..poisoned_paths };
             trace_light_paths(ts, &tracer, paths, seed_c, pass)
         } else {
             Default::default()
@@ -406,6 +436,8 @@ pub fn start_pass(
     let (m_photons, m_beams) = (photon_lights.paths.max(1) as f32, beam_lights.paths.max(1) as f32);
     let photon_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, caustic_paths, pass);
     let beam_r2 = paths_squared_radius(settings.photon_radius, settings.alpha, settings.beam_paths, pass);
+    times.discarded.light_paths =
+        (lights.nonfinite_paths + photon_lights.nonfinite_paths + beam_lights.nonfinite_paths) as u64;
     let photons = PhotonMap::build(&photon_lights.caustic_photons, photon_r2);
     let beams = BeamMap::build(&beam_lights.photon_beams, beam_r2);
     times.trace = clock.elapsed();
@@ -483,7 +515,7 @@ pub fn start_pass(
         let extra = trace_camera_paths(ts, &direct_only, w, h, seed_k, pass);
         discarded += direct_light(ts, &extra, seed_k, pass, false, direct);
     }
-    times.discarded[Component::Direct as usize] = discarded;
+    times.discarded.estimates[Component::Direct as usize] = discarded;
     let scale = 1.0 / direct_samples as f32;
     direct.iter_mut().for_each(|v| *v *= scale);
     times.component_cpu[Component::Direct as usize] =
@@ -618,7 +650,7 @@ pub fn start_pass(
         for (k, v) in c.into_iter().enumerate() {
             out[k][pixel as usize] += v;
             times.component_cpu[k] += t[k];
-            times.discarded[k] += dp[k];
+            times.discarded.estimates[k] += dp[k];
         }
     }
     times.cpu_estimates = clock.elapsed();

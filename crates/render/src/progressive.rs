@@ -3,7 +3,7 @@
 use crate::{
     Film,
     accum::Accumulators,
-    many_lights::{self, ManyLightSettings, PassInFlight, PassTimes, VirtualLights},
+    many_lights::{self, Discards, ManyLightSettings, PassInFlight, PassTimes, VirtualLights},
 };
 use beamlight_gpu::GpuBackend;
 use beamlight_scene::{Rgb, rng::Sampler};
@@ -85,7 +85,7 @@ pub struct RenderResult {
     pub auto: Option<crate::auto::AutoReport>,
     /// Estimates discarded per component over the whole render ([`PassTimes::discarded`]):
     /// its passes and those of the checkpoint it continued.
-    pub discarded: [u64; Component::ALL.len()],
+    pub discarded: Discards,
 }
 
 /// The state of a render after a pass, handed to the caller (progress display, intermediate
@@ -100,7 +100,7 @@ pub struct Progress<'a> {
     pub elapsed: Duration,
     /// Estimates discarded so far, per component ([`PassTimes::discarded`]), a continued
     /// checkpoint's included.
-    pub discarded: [u64; Component::ALL.len()],
+    pub discarded: Discards,
     /// `--method auto`: where each component's estimate came from so far, and the running
     /// sums behind it (for checkpoints).
     pub auto: Option<&'a crate::auto::AutoReport>,
@@ -167,7 +167,7 @@ pub fn render_from(
             )),
             None => None,
         };
-        let discarded = resume.map_or([0; Component::ALL.len()], |acc| acc.discarded);
+        let discarded = resume.map_or(Discards::default(), |acc| acc.discarded);
         return crate::auto::render(ts, opts, &many_light_settings, sums, discarded, on_pass);
     }
     let (w, h) = (opts.width, opts.height);
@@ -201,7 +201,7 @@ pub fn render_from(
     };
     let mut passes = 0u64;
     let mut pass_times = Vec::new();
-    let mut discarded_so_far = resume.map_or([0; Component::ALL.len()], |acc| acc.discarded);
+    let mut discarded_so_far = resume.map_or(Discards::default(), |acc| acc.discarded);
     // Passes started; with the many-light methods one pass is in flight (its GPU gathers
     // running) while the next one is traced and estimated on the CPU.
     let mut started_passes = 0u64;
@@ -265,9 +265,7 @@ pub fn render_from(
                 .map_err(|e| format!("pass {done_pass} on the GPU: {e}"))?;
             times.wall = last_finish.elapsed();
             last_finish = Instant::now();
-            for (sum, d) in discarded_so_far.iter_mut().zip(times.discarded) {
-                *sum += d;
-            }
+            discarded_so_far.add(&times.discarded);
             pass_times.push(times);
             for (i, px) in buffer.iter_mut().enumerate() {
                 *px = many_light_buffers.iter().map(|b| b[i]).sum();

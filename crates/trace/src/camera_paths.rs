@@ -237,6 +237,8 @@ fn trace_one(
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
             let length = media::extent(m, o, hit.map_or(f32::INFINITY, |h| h.t));
+            // Finite and positive wherever something can scatter (`media::extent`, tested):
+            // a segment skipped here holds no light.
             if length.is_finite() && length > 0.0 {
                 set.media_segments.push(MediaSegment {
                     origin: o.into(),

@@ -79,6 +79,11 @@ pub struct LightSet {
     /// Medium segments that start at the light or right after a specular bounce (flags say
     /// which): single scattering and volume caustics.
     pub photon_beams: Vec<LightSegment>,
+    /// Paths ended early because their power turned NaN or infinite (at emission, after a
+    /// scattering, or through a shading-normal correction of a direction in the surface's
+    /// plane): their light is lost, so the count is reported (`Discards::light_paths` in the
+    /// render crate) instead of the path ending unseen. Zero in a sane scene.
+    pub nonfinite_paths: u32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -89,6 +94,9 @@ pub struct LightTracerSettings {
     pub max_depth: Option<u32>,
     /// The records kept; the others are not stored (the walk is the same).
     pub keep: Keep,
+    /// Fault injection for the counters' tests (`ManyLightSettings::inject_nan` in the render
+    /// crate): path 0 leaves its light with a NaN power, so it must be counted.
+    pub inject_nan: bool,
 }
 
 impl Default for LightTracerSettings {
@@ -97,6 +105,7 @@ impl Default for LightTracerSettings {
             rr_depth: 3,
             max_depth: None,
             keep: Keep::ALL,
+            inject_nan: false,
         }
     }
 }
@@ -151,8 +160,13 @@ pub fn trace_light_paths(
             let mut part = LightSet::default();
             for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
                 let mut s = Sampler::new(seed ^ 0x9e37_79b9, pass, k);
-                if let Some(e) = ts.lights.sample_emission(&ts.scene, &mut s) {
-                    trace_one(ts, settings, e, &mut s, &mut part);
+                if let Some(mut e) = ts.lights.sample_emission(&ts.scene, &mut s) {
+                    if settings.inject_nan && k == 0 {
+                        e.power = Rgb::splat(f32::NAN);
+                    }
+                    if !trace_one(ts, settings, e, &mut s, &mut part) {
+                        part.nonfinite_paths += 1;
+                    }
                 }
             }
             part
@@ -167,6 +181,7 @@ pub fn trace_light_paths(
         set.vpls.extend(part.vpls);
         set.caustic_photons.extend(part.caustic_photons);
         set.photon_beams.extend(part.photon_beams);
+        set.nonfinite_paths += part.nonfinite_paths;
     }
     set
 }
@@ -182,10 +197,21 @@ fn segment(origin: Vec3, dir: Vec3, length: f32, medium: u32, power: Rgb, flags:
     }
 }
 
-fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample, s: &mut Sampler, set: &mut LightSet) {
+/// Traces one light path into `set`; false when it ended because its power turned NaN or
+/// infinite (counted by the caller), true when it ended as paths do.
+fn trace_one(
+    ts: &TraceScene,
+    settings: &LightTracerSettings,
+    e: EmissionSample,
+    s: &mut Sampler,
+    set: &mut LightSet,
+) -> bool {
     let scene = &ts.scene;
     let max_depth = settings.max_depth.unwrap_or(u32::MAX);
     let mut power = e.power;
+    if !power.is_finite() {
+        return false;
+    }
     let mut d = e.dir;
     let (mut o, mut medium): (Vec3, MediumId) = match e.surface {
         Some((tri, n)) => {
@@ -213,6 +239,7 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
             // (A segment cut at the sampled collision would need the collision's survival
             // probability instead, which spectral tracking does not have in closed form.)
             let length = media::extent(m, o, tmax);
+            // Finite and positive wherever something can scatter (`media::extent`, tested).
             if length.is_finite() && length > 0.0 {
                 let seg = segment(o, d, length, mi, power, flags);
                 if settings.keep.vrls {
@@ -227,7 +254,7 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
                     power *= weight;
                     depth += 1;
                     if depth > max_depth || power == Rgb::ZERO {
-                        return;
+                        return true;
                     }
                     let p = o + d * t;
                     // HG is symmetric, so the same sampling serves light paths: `wo` points back
@@ -238,25 +265,28 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
                     o = p;
                     d = ps.wi;
                     if !roulette(&mut power, e.power, depth, settings.rr_depth, s) {
-                        return;
+                        return power.is_finite();
                     }
                     continue;
                 }
                 MediumEvent::Pass { weight } => {
                     power *= weight;
                     if power == Rgb::ZERO {
-                        return;
+                        return true;
+                    }
+                    if !power.is_finite() {
+                        return false;
                     }
                 }
             }
         }
-        let Some(h) = hit else { return };
+        let Some(h) = hit else { return true };
         let sh = ts.surface(&h);
         let Some(bsdf) = scene.bsdf_at(sh.material, sh.uv) else {
             medium = ts.medium_beyond(&sh, d, medium);
             crossings += 1;
             if crossings > MAX_CROSSINGS {
-                return;
+                return true;
             }
             o = sh.spawn(d);
             continue;
@@ -285,29 +315,31 @@ fn trace_one(ts: &TraceScene, settings: &LightTracerSettings, e: EmissionSample,
         }
         depth += 1;
         if depth > max_depth {
-            return;
+            return true;
         }
         let frame = Frame::from_normal(sh.ns);
         let Some(bs) = bsdf.sample_mode(frame.to_local(wo), s.next_2d(), s.next_1d(), TransportMode::Importance) else {
-            return;
+            return true;
         };
+        if bs.weight == Rgb::ZERO {
+            return true;
+        }
         let wi = frame.to_world(bs.wi);
         let transmissive = matches!(bsdf, beamlight_scene::bsdf::Bsdf::Glass { .. });
         if !transmissive && sh.ng.dot(wi) * sh.ng.dot(wo) <= 0.0 {
-            return;
+            return true;
         }
-        // Adjoint BSDFs with shading normals need Veach's correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|).
+        // Adjoint BSDFs with shading normals need Veach's correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|);
+        // a direction in the plane of either normal makes it infinite or NaN, and the path
+        // ends at the roulette below, counted.
         let correction = (wo.dot(sh.ns) * wi.dot(sh.ng)).abs() / (wo.dot(sh.ng) * wi.dot(sh.ns)).abs();
-        if !correction.is_finite() {
-            return;
-        }
         power *= bs.weight * correction;
         flags = if bs.is_delta { AFTER_SPECULAR } else { 0 };
         medium = ts.medium_beyond(&sh, wi, medium);
         o = sh.spawn(wi);
         d = wi;
         if !roulette(&mut power, e.power, depth, settings.rr_depth, s) {
-            return;
+            return power.is_finite();
         }
     }
 }

@@ -201,7 +201,10 @@ impl LightSampler {
                     return None;
                 }
                 let pdf = lp.pdf * dist2 / cos_l.abs();
-                if !(pdf.is_finite() && pdf > 0.0) {
+                // An infinite density (a grazing cosine that underflowed) is a connection whose
+                // contribution vanishes. A NaN or zero one cannot come from a sampled point: it
+                // flows on as a non-finite contribution, for the estimators to count.
+                if pdf == f32::INFINITY {
                     return None;
                 }
                 let target = offset_ray_origin(q, lp.p_error, face_towards(n, -wi));
@@ -237,8 +240,10 @@ impl LightSampler {
                         }
                         let dist = dist2.sqrt();
                         let wi = to / dist;
+                        // Not finite only for a lamp on the point itself (dist² underflowing) or a
+                        // broken light: returned as it is, for the estimators to count.
                         let contribution = l.intensity_towards(-wi) / (dist2 * pmf);
-                        contribution.is_finite().then_some(LightSample {
+                        Some(LightSample {
                             p: q,
                             n: None,
                             wi,
@@ -329,7 +334,9 @@ impl LightSampler {
                 }
             },
         };
-        (sample.power.is_finite() && sample.power.max_element() > 0.0).then_some(sample)
+        // No power (outside a spot's cone, a black emitter): no path. A non-finite power is
+        // returned for the light tracer to count (`LightSet::nonfinite_paths`).
+        (sample.power != Rgb::ZERO).then_some(sample)
     }
 
     /// Solid-angle pdf with which `sample` from `from` would have produced the point `q` on
@@ -344,6 +351,9 @@ impl LightSampler {
         let dist2 = to.length_squared();
         let cos_l = t.cross().normalize().dot(to).abs() / dist2.sqrt();
         let pdf = pmf / t.area() * dist2 / cos_l;
-        if pdf.is_finite() { pdf } else { 0.0 }
+        // A grazing hit (cos_l = 0): light sampling yields nothing there (`connect`), so it takes
+        // no MIS weight from the BSDF sample: density 0.
+        // A NaN (a hit at distance 0) flows on, for the estimators to count.
+        if pdf == f32::INFINITY { 0.0 } else { pdf }
     }
 }

@@ -256,7 +256,10 @@ pub fn transmittance_counted(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sa
     // channel negative; that is cut to 0. A NaN (a NaN density) stays NaN for the estimators'
     // admission to count (`Rgb::max` would make it 0 as well).
     let non_negative = |v: f32| if v < 0.0 { 0.0 } else { v };
-    (Rgb::new(non_negative(tr.x), non_negative(tr.y), non_negative(tr.z)), steps)
+    (
+        Rgb::new(non_negative(tr.x), non_negative(tr.y), non_negative(tr.z)),
+        steps,
+    )
 }
 
 /// Channels whose extinction is within this factor of their group's densest share a
@@ -488,6 +491,39 @@ mod tests {
             g: 0.0,
             density,
         }
+    }
+
+    /// Why camera and light paths may skip a media segment whose length is not finite and
+    /// positive without losing light (`camera_paths`, `light_paths`): `extent` gives a finite,
+    /// positive length for every ray through a medium that scatters, even one leaving the
+    /// scene, and 0 only for a medium in which nothing scatters (σt = 0 in every channel) or a
+    /// ray already at the next surface. Catches an extent that turned infinite (a skipped
+    /// segment: in-scattering lost) or zero for a scattering medium.
+    #[test]
+    fn extent_is_finite_and_positive_wherever_something_scatters() {
+        let grid = DensityGrid::constant(UVec3::splat(4), Vec3::splat(-1.0), Vec3::ONE, 1.0);
+        let thin = Rgb::new(0.0, 1e-30, 0.0);
+        for m in [
+            medium(Rgb::ONE, Rgb::ZERO, None),
+            medium(thin, Rgb::ZERO, None),
+            medium(Rgb::ZERO, Rgb::new(2.0, 0.0, 0.0), None),
+            medium(Rgb::ONE, Rgb::ZERO, Some(grid)),
+        ] {
+            for o in [Vec3::ZERO, Vec3::splat(1e6)] {
+                let e = extent(&m, o, f32::INFINITY);
+                assert!(
+                    e.is_finite() && e > 0.0,
+                    "{:?} {:?} from {o}: {e}",
+                    m.sigma_s,
+                    m.sigma_a
+                );
+                assert_eq!(extent(&m, o, 2.5), 2.5, "a surface ahead bounds it");
+            }
+        }
+        assert_eq!(
+            extent(&medium(Rgb::ZERO, Rgb::ZERO, None), Vec3::ZERO, f32::INFINITY),
+            0.0
+        );
     }
 
     /// A NaN ray (from a broken caller) ends the walk instead of looping forever.
