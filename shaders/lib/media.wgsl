@@ -1,5 +1,6 @@
 //! use lib/rng.wgsl
 //! use lib/bvh.wgsl
+//! use lib/sampling.wgsl
 // Transmittance through the scene's media: the twin of `beamlight_trace::media::transmittance`
 // and of `TraceScene::{medium_transmittance, shadow_transmittance}`. Each `next_1d` is drawn at
 // the same point of the same loop as on the CPU, so a kernel and its CPU oracle agree sample for
@@ -70,6 +71,18 @@ fn homogeneous_transmittance(sigma_t: vec3<f32>, t: f32) -> vec3<f32> {
 // body): `walk_majorant_cells` with the body of `tentative_collisions` and of the walk's
 // closure written inline (WGSL has no closures), in the same order, so the same draws land on
 // the same collisions. Channels outside the group keep a factor of exactly 1.
+// `media::MAJORANT_SLACK` and `media::null_fraction`, per channel: a ratio-tracking factor is
+// ≥ 0 under a true majorant; rounding below 0 becomes 0, anything further below (a majorant too
+// small) NaN, and a NaN stays NaN, for the gathers' `admit` to count.
+const MAJORANT_SLACK: f32 = 1e-4;
+fn null_fraction(v: vec3<f32>) -> vec3<f32> {
+    // A quiet NaN built from the input's bits at run time: a NaN constant is what a shader
+    // compiler may fold away or refuse.
+    let nan = bitcast<vec3<f32>>((bitcast<vec3<u32>>(v) & vec3<u32>(0u)) | vec3<u32>(0x7fc00000u));
+    let rounded = select(v, vec3<f32>(0.0), v < vec3<f32>(0.0));
+    return select(rounded, nan, v < vec3<f32>(-MAJORANT_SLACK));
+}
+
 fn ratio_tracking(m: Medium, o: vec3<f32>, d: vec3<f32>, tmax: f32, sigma_g: vec3<f32>, sigma_max: f32, mask: vec3<f32>, s: ptr<function, Sampler>) -> vec3<f32> {
     let sigma_t = sigma_g;
     let rest = vec3<f32>(1.0) - mask;
@@ -135,7 +148,10 @@ fn ratio_tracking(m: Medium, o: vec3<f32>, d: vec3<f32>, tmax: f32, sigma_g: vec
                         break;
                     }
                     let density = grid_density(m, o + d * tc);
-                    tr = tr * (vec3<f32>(1.0) - sigma_t * (density / mu));
+                    tr = tr * null_fraction(vec3<f32>(1.0) - sigma_t * (density / mu));
+                    if !finite_vec3(tr) {
+                        return tr; // a broken grid: the NaN goes to the counters
+                    }
                     let mx = rgb_max(tr * mask);
                     if mx < 0.1 {
                         // Russian roulette keeps the expected value and bounds the work.

@@ -207,6 +207,25 @@ pub fn forced_collision(m: &Medium, tmax: f32, throughput: Rgb, s: &mut Sampler)
     })
 }
 
+/// How far below 0 rounding may take a null-collision quantity (relative to the majorant): a
+/// density looked up by trilinear interpolation can exceed the majorant of its cell, which
+/// bounds the voxels it interpolates, by a few ulps.
+pub const MAJORANT_SLACK: f32 = 1e-4;
+
+/// A null-collision quantity (a ratio-tracking factor 1 − σt·d/μ, or a null density μ − σt·d
+/// over μ), which is ≥ 0 under a true majorant: `v`, 0 for rounding below zero, and NaN beyond
+/// (the majorant is too small for the density) or for NaN (a NaN density), so that the
+/// estimators' counters see a broken grid instead of a clamp or the roulette hiding it.
+fn null_fraction(v: f32) -> f32 {
+    if v >= 0.0 {
+        v
+    } else if v >= -MAJORANT_SLACK {
+        0.0
+    } else {
+        f32::NAN
+    }
+}
+
 /// Inverse-CDF sample of an exponential with rate `sigma`; 1−u ∈ (0, 1] keeps the log finite.
 fn exponential(sigma: f32, u: f32) -> f32 {
     if sigma > 0.0 {
@@ -238,7 +257,10 @@ pub fn transmittance_counted(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sa
         let mut tr_g = Rgb::ONE;
         tentative_collisions(grid, sigma_max, o, d, tmax, s, |_, density, mu, s| {
             steps += 1;
-            tr_g *= Rgb::ONE - sigma_g * (density / mu);
+            tr_g *= (Rgb::ONE - sigma_g * (density / mu)).map(null_fraction);
+            if tr_g.is_nan() {
+                return false; // a broken grid: the NaN goes to the counters
+            }
             let m = (tr_g * mask).max_element();
             if m < 0.1 {
                 // Russian roulette keeps the expected value and bounds the work.
@@ -252,9 +274,9 @@ pub fn transmittance_counted(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sa
         });
         tr *= tr_g;
     }
-    // Ratio tracking's factors are ≥ 0 under a true majorant, so only rounding makes a
-    // channel negative; that is cut to 0. A NaN (a NaN density) stays NaN for the estimators'
-    // admission to count (`Rgb::max` would make it 0 as well).
+    // Ratio tracking's factors are ≥ 0 ([`null_fraction`]), so only rounding could make a
+    // channel negative; that is cut to 0. A NaN (a NaN density, a majorant too small) stays
+    // NaN for the estimators' admission to count (`Rgb::max` would make it 0 as well).
     let non_negative = |v: f32| if v < 0.0 { 0.0 } else { v };
     (
         Rgb::new(non_negative(tr.x), non_negative(tr.y), non_negative(tr.z)),
@@ -310,7 +332,19 @@ fn sample_grid(
     let mut result = None;
     tentative_collisions(grid, sigma_max, o, d, tmax, s, |t, density, mu, s| {
         let sig_s = m.sigma_s * density;
-        let sig_n = (Rgb::splat(mu) - sigma_t * density).max(Rgb::ZERO);
+        // Null density per channel, ≥ 0 for the tracked group's channels under a true majorant
+        // ([`null_fraction`]); the others carry no weight in this sample (0).
+        let raw = Rgb::splat(mu) - sigma_t * density;
+        let sig_n = Rgb::from_array(std::array::from_fn(|c| match (mask[c] > 0.0, raw[c]) {
+            (false, _) => 0.0,
+            (true, v) if v >= 0.0 => v,
+            (true, v) => null_fraction(v / mu),
+        }));
+        if sig_n.is_nan() || sig_s.is_nan() {
+            // A broken grid ([`null_fraction`]): the path carries the NaN to the counters.
+            weight = Rgb::splat(f32::NAN);
+            return false;
+        }
         let w = (throughput * weight).abs();
         let p_s_raw = (sig_s * w).max_element();
         let p_n_raw = (sig_n * w).max_element();

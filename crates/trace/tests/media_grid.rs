@@ -289,3 +289,46 @@ fn a_nan_density_gives_a_nan_transmittance() {
     }
     assert!(nan > 100, "{nan} of 2000 transmittance estimates were NaN");
 }
+
+/// A majorant too small for its grid (here half the density) is reported, not hidden: ratio
+/// tracking's negative factors make the transmittance NaN, and delta tracking's negative null
+/// density makes the event's weight NaN, for the estimators' and the film's counters. With the
+/// true majorant neither ever happens. Before, the transmittance's negative factor sent the
+/// walk into Russian roulette, which ended it at 0 (an opaque wall), and the null density was
+/// clamped to 0 (failed before: 0 of 2000 NaN for both).
+#[test]
+fn a_majorant_too_small_gives_nan_not_an_opaque_wall() {
+    let grid = DensityGrid::new(UVec3::splat(5), Vec3::ZERO, Vec3::ONE, vec![1.0f32; 125]);
+    let mut broken = grid.clone();
+    broken.majorants.iter_mut().for_each(|m| *m *= 0.5);
+    let (o, d) = (Vec3::new(0.5, 0.5, -0.1), Vec3::Z);
+    for (g, is_broken) in [(grid, false), (broken, true)] {
+        let m = Medium {
+            name: "m".into(),
+            sigma_s: Rgb::splat(2.0),
+            sigma_a: Rgb::splat(0.5),
+            g: 0.0,
+            density: Some(g),
+        };
+        let (mut nan_tr, mut nan_event) = (0, 0);
+        for k in 0..2000 {
+            let mut s = Sampler::new(3, 0, k);
+            let tr = transmittance(&m, o, d, 1.2, &mut s);
+            assert!(tr.is_nan() || tr.min_element() >= 0.0, "{tr}");
+            nan_tr += tr.is_nan() as u32;
+            let weight = match sample_distance(&m, o, d, 1.2, Rgb::ONE, &mut s) {
+                MediumEvent::Scatter { weight, .. } | MediumEvent::Pass { weight } => weight,
+            };
+            nan_event += weight.is_nan() as u32;
+        }
+        if is_broken {
+            assert!(nan_tr > 1000, "{nan_tr} of 2000 transmittance estimates NaN");
+            assert!(
+                nan_event > 1000,
+                "{nan_event} of 2000 sampled distances with a NaN weight"
+            );
+        } else {
+            assert_eq!((nan_tr, nan_event), (0, 0), "a true majorant");
+        }
+    }
+}
