@@ -156,9 +156,11 @@ fn extreme_media_and_materials_stay_finite_for_every_method_and_backend() {
 }
 
 /// In the furnace (walls emitting 1 with albedo 0.5, a purely scattering medium) radiance is 2
-/// everywhere. No method may exceed it by much at any σs and g, and where the estimators
-/// converge in a few passes (optical depth up to 2) the mean must also reach it, at every g.
-/// With g = ±0.999 that holds since the camera paths walk through sharp media (issue 15 item
+/// everywhere. No method may exceed it by more than 4 standard errors (batch means) at any σs
+/// and g, and where the estimators converge in a few passes (optical depth up to 2; not the
+/// many-light methods at g = ±0.999, see below) the mean must also reach it within 4 standard
+/// errors (plus the stated allowances; made to fail once with every mean scaled by 0.9).
+/// With g = ±0.999, `vbl` reaches it over many passes since the camera paths walk through sharp media (issue 15 item
 /// 3, `components`): before, the near-delta phase functions put the many-light estimators'
 /// expected value into connections they almost never sampled, and `vbl` gave 0.85 ± 0.04 at
 /// g = 0.999 and 0.92 ± 0.12 at −0.999 after 1024 passes (8×8, σs = 1, 8 paths per pass,
@@ -179,26 +181,40 @@ fn furnace_bound_holds_at_the_extremes() {
             for method in METHODS {
                 let mut opts = options(method, w, passes * 4, None);
                 opts.height = h;
-                let r = render(&ts, &opts, |_| true).unwrap();
+                // Image means with standard errors from batch means (one pass a batch).
+                let run = render_with_errors(&ts, &opts, passes * 4);
                 let what = format!("furnace σs {sigma_s}, g {g}, {}", method.name());
-                assert_finite(&what, &r);
-                let mean = r.film.image().mean();
-                // A few passes of unclamped estimators are noisy; the bound catches explosions
-                // and lost energy, not percent-level bias (tests/many_lights.rs does that).
-                // Unclamped estimators are noisy over a few passes, and clamping loses energy: the
-                // bounds catch explosions and lost light, not percent-level bias (that is
-                // tests/many_lights.rs's and tests/vbl_progressive.rs's job).
-                let (lo, hi) = if method == Method::VrlClamped {
-                    (0.3, 2.6)
-                } else {
-                    (1.0, 3.5)
+                assert_finite(&what, &run.result);
+                let (mean, se) = (run.image, run.image_error);
+                eprintln!("{what}: {mean:.4} ± {:.4}", se.max_element());
+                // Nothing may exceed 2 by more than 4 standard errors (clamping only loses
+                // light; the blur's bias is within a few percent): an explosion or light counted
+                // twice fails. Where a few passes converge (optical depth ≤ 2), the unbiased
+                // `pt` and `vrl` must also reach 2 within 4 standard errors, and `vbl` within
+                // them plus 5 % (its blur at R0 with a handful of passes: about −2.5 % in the
+                // furnace, tests/vbl_progressive.rs); `vrl-clamped` must keep at least half
+                // (its clamp's loss, which depends on the scene). Not at g = ±0.999 for the
+                // many-light methods: there the light scattered at a VRL towards a camera record
+                // sits in the phase function's spike, which 8 passes rarely draw, so the sample
+                // mean is low and its batch error too small (measured: `vrl` 1.30 ± 0.02 at
+                // g = 0.999, `vbl` 1.81 ± 0.12 at −0.999); `vbl` there is judged over 16 seeds
+                // of 1024 passes in tests/vbl_progressive.rs, `vrl` is not (it is not the
+                // method for sharp media). Percent-level bias is judged with many passes
+                // elsewhere (tests/many_lights.rs, tests/vbl_progressive.rs).
+                let converges = sigma_s <= 1.0 && (g.abs() < 0.99 || method == Method::Pt);
+                let allowance = match method {
+                    Method::Vbl => 0.1,
+                    Method::VrlClamped => 1.0,
+                    _ => 0.0,
                 };
-                let converges = sigma_s <= 1.0;
                 for c in 0..3 {
-                    assert!(mean[c] < hi, "{what}: mean {mean} above the furnace's 2");
                     assert!(
-                        !converges || mean[c] > lo,
-                        "{what}: mean {mean}, far below the furnace's 2"
+                        mean[c] < 2.0 + 4.0 * se[c],
+                        "{what}: mean {mean} ± {se}, above the furnace's 2"
+                    );
+                    assert!(
+                        !converges || mean[c] > 2.0 - allowance - 4.0 * se[c],
+                        "{what}: mean {mean} ± {se}, below the furnace's 2"
                     );
                 }
             }
