@@ -137,6 +137,13 @@ fn equiangular(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, c: vec3<f32>, u: f3
     let h = max(max(length_glam(c - (o + d * delta)), scale * 1e-6), F32_MIN_POSITIVE);
     let theta0 = precise_atan2(t0 - delta, h);
     let theta1 = precise_atan2(t1 - delta, h);
+    // `sampling::subtends_no_angle`: an interval too short, seen from c, to sample by angle
+    // is sampled uniformly.
+    if !(theta1 - theta0 > 1e-4 * max(abs(theta0), abs(theta1))) {
+        let uniform_pdf = 1.0 / (t1 - t0);
+        let ok = finite_f32(uniform_pdf) && uniform_pdf > 0.0;
+        return vec2<f32>(clamp(t0 + u * (t1 - t0), t0, t1), select(0.0, uniform_pdf, ok));
+    }
     let t = clamp(delta + h * precise_tan(theta0 + u * (theta1 - theta0)), t0, t1);
     let x = t - delta;
     let pdf = h / ((theta1 - theta0) * (h * h + x * x));

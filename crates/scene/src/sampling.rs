@@ -200,11 +200,31 @@ impl Distribution1D {
 /// point on a ray light as seen from a shading point. Returns `(t, pdf)`.
 ///
 /// A point `c` on the line itself would make the density singular; its distance to the line
-/// is clamped to a tiny fraction of the problem's scale, so the pdf stays finite.
+/// is clamped to a tiny fraction of the problem's scale, so the pdf stays finite. An interval
+/// that subtends almost no angle at `c` (a short segment far away: [`subtends_no_angle`]) is
+/// sampled uniformly instead, where the density 1/|…|² is nearly constant anyway: its angles
+/// round to too few values to sample by, and to the same one (a density of 1/0, which was
+/// returned as 0: a contribution lost) for the shortest.
 pub fn equiangular(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, u: f32) -> (f32, f32) {
     let (delta, h, theta0, theta1) = equiangular_frame(o, d, t0, t1, c);
+    if subtends_no_angle(theta0, theta1) {
+        return ((t0 + u * (t1 - t0)).clamp(t0, t1), uniform_density(t0, t1));
+    }
     let t = (delta + h * (theta0 + u * (theta1 - theta0)).tan()).clamp(t0, t1);
     (t, equiangular_density(t, delta, h, theta0, theta1))
+}
+
+/// Whether the angles `theta0 < theta1` of an interval's ends, seen from a point, are too
+/// close for f32 to sample between (a difference below 10⁻⁴ of their size: fewer than about
+/// 1 000 distinct angles in between). [`equiangular`] then samples uniformly.
+pub fn subtends_no_angle(theta0: f32, theta1: f32) -> bool {
+    !(theta1 - theta0 > 1e-4 * theta0.abs().max(theta1.abs()))
+}
+
+/// 1 / (t1 − t0), or 0 for an empty interval (whose integral is 0).
+fn uniform_density(t0: f32, t1: f32) -> f32 {
+    let pdf = 1.0 / (t1 - t0);
+    if pdf.is_finite() && pdf > 0.0 { pdf } else { 0.0 }
 }
 
 /// The density with which [`equiangular`] produces `t` (0 outside `[t0, t1]`).
@@ -213,6 +233,9 @@ pub fn equiangular_pdf(o: Vec3, d: Vec3, t0: f32, t1: f32, c: Vec3, t: f32) -> f
         return 0.0;
     }
     let (delta, h, theta0, theta1) = equiangular_frame(o, d, t0, t1, c);
+    if subtends_no_angle(theta0, theta1) {
+        return uniform_density(t0, t1);
+    }
     equiangular_density(t, delta, h, theta0, theta1)
 }
 

@@ -293,6 +293,17 @@ fn chi2_equiangular_sampling() {
         Vec3::new(1.0, 1.0, 1.0),
         43,
     );
+    // An interval seen from far away (10⁵ units, at 45°): its angles are within 10⁻⁴ of each
+    // other, so it is sampled uniformly (`subtends_no_angle`), and the density must say so.
+    let side = d.cross(Vec3::Y).normalize();
+    let (t0, t1, c) = (0.0f32, 1.0f32, o + (d + side) * 7.0e4);
+    let uniform = beamlight_scene::sampling::equiangular_pdf(o, d, t0, t1, c, t0 + 0.01);
+    assert_eq!(uniform, 1.0 / (t1 - t0), "the uniform fallback");
+    assert!(
+        beamlight_scene::sampling::equiangular_pdf(o, d, 0.0, 100.0, c, 50.0) != 0.01,
+        "a longer one is not"
+    );
+    chi2_equiangular("equiangular, far short interval", o, d, t0, t1, c, 44);
 }
 
 #[test]

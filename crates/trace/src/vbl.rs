@@ -952,6 +952,59 @@ pub fn vsl_to_surface(
 mod tests {
     use super::*;
 
+    /// Why the estimators may return 0 when a position sampler's density is not positive and
+    /// finite (`vrl::vrl_to_surface`, `vrl_to_media`, the VBL/VSL gathers here, direct light in
+    /// a medium): over scenes from 10⁻³ to 10³ units, segments from 10⁻⁴ to 10 scene sizes long
+    /// and points anywhere around them (on the line included), equiangular sampling, the VRL
+    /// paper's 1/distance² sampling along a line and the piecewise-linear angular sampling
+    /// (with any vertex values, zeros included) give a finite, positive density for every
+    /// sample. So those guards cut only segments of zero length, where the integral is 0, or
+    /// input outside f32's reach. Catches a sampler that returns a zero or infinite density for
+    /// a sample it drew (an integrand silently lost there, or a NaN).
+    #[test]
+    fn position_samplers_give_positive_finite_densities() {
+        let mut s = Sampler::new(17, 0, 0);
+        let settings = VblSettings::default();
+        let unit = |s: &mut Sampler| sampling::uniform_sphere(s.next_2d());
+        let cube = |s: &mut Sampler| Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5;
+        for scale in [1e-3f32, 1.0, 1e3] {
+            for case in 0..4000 {
+                let o = cube(&mut s) * 4.0 * scale;
+                let d = unit(&mut s);
+                let len = scale * 10f32.powf(-4.0 + 5.0 * s.next_1d());
+                // A point off the line, or on it (every eighth case).
+                let c = if case % 8 == 0 {
+                    o + d * len * s.next_1d()
+                } else {
+                    cube(&mut s) * 8.0 * scale
+                };
+                let what = format!("scale {scale}, case {case}: o {o}, d {d}, length {len}, c {c}");
+                let (t, pdf) = sampling::equiangular(o, d, 0.0, len, c, s.next_1d());
+                assert!(
+                    pdf.is_finite() && pdf > 0.0 && (0.0..=len).contains(&t),
+                    "equiangular {what}: {pdf}"
+                );
+                let (oc, dc) = (cube(&mut s) * 4.0 * scale, unit(&mut s));
+                for min_dist in [0.0, 0.1 * scale] {
+                    let (u, pdf) = crate::vrl::sample_near_line(o, d, len, oc, dc, min_dist, s.next_1d());
+                    assert!(
+                        pdf.is_finite() && pdf > 0.0 && (0.0..=len).contains(&u),
+                        "near line {what}: {pdf}"
+                    );
+                }
+                let line = LineAngles::new(o, d, 0.0, len, c, 0.05 * scale);
+                let zeros = case % 3 == 0;
+                let (t, pdf) = sample_angular(&line, 0.0, len, &settings, 1.0, s.next_1d(), |t| {
+                    if zeros { 0.0 } else { 1.0 + (t / len).sin().abs() }
+                });
+                assert!(
+                    pdf.is_finite() && pdf > 0.0 && (0.0..=len).contains(&t),
+                    "angular {what}: {pdf}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn cone_weight_is_the_solid_angle_over_the_disc_area() {
         for (d, r) in [(1.0f32, 0.1f32), (2.0, 1.0), (1.0, 0.999), (3.0, 1e-4)] {
