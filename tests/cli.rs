@@ -35,6 +35,18 @@ fn render(scene: &Path, out: &Path, extra: &[&str]) -> Output {
     beamlight(&args)
 }
 
+/// A small render of `common::write_glass_ball_scene` with light in every component, cheaply.
+const SMALL_GLASS_BALL: [&str; 8] = [
+    "--width",
+    "20",
+    "--height",
+    "16",
+    "--light-paths",
+    "16",
+    "--caustic-paths",
+    "512",
+];
+
 /// The methods of `--method`.
 const METHODS: [&str; 5] = ["pt", "vbl", "vrl", "vrl-clamped", "auto"];
 
@@ -146,7 +158,7 @@ fn same_seed_same_image_on_any_number_of_threads_and_either_backend() {
     }
     let layers = |method: &str, backend: &str, threads: &str| {
         let out = dir.path().join(format!("{method}-{backend}-{threads}.exr"));
-        let o = beamlight(&[
+        let mut args = vec![
             "render",
             scene.to_str().unwrap(),
             "-o",
@@ -161,16 +173,10 @@ fn same_seed_same_image_on_any_number_of_threads_and_either_backend() {
             "2",
             "--seed",
             "7",
-            "--width",
-            "20",
-            "--height",
-            "16",
-            "--light-paths",
-            "16",
-            "--caustic-paths",
-            "512",
             "--components",
-        ]);
+        ];
+        args.extend(SMALL_GLASS_BALL);
+        let o = beamlight(&args);
         assert!(o.status.success(), "{method} {backend} {threads}: {}", stderr(&o));
         let layers = beamlight_render::output::read_exr_layers(&out).unwrap();
         assert_eq!(layers.len(), 8);
@@ -1083,19 +1089,12 @@ fn injected_nans_are_counted_through_every_output() {
             method,
             "--backend",
             backend,
-            "--width",
-            "20",
-            "--height",
-            "16",
-            "--light-paths",
-            "16",
-            "--caustic-paths",
-            "512",
             "--beam-paths",
             "256",
             "--inject-nan",
             "--stats",
         ];
+        args.extend(SMALL_GLASS_BALL);
         let (out, json) = (p(out), p(&format!("{out}.json")));
         args.extend(["-o", out.to_str().unwrap(), "--stats-json", json.to_str().unwrap()]);
         args.extend_from_slice(extra);

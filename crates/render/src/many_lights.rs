@@ -399,11 +399,11 @@ pub fn start_pass(
     let segment_credits: Vec<Option<Component>> = std::iter::repeat_n(None, gather.media_segments.len())
         .chain(std::iter::repeat_n(Some(Component::Lmm), gather.walk_segments.len()))
         .collect();
-    let poisoned_paths = LightTracerSettings {
+    let light_tracer = LightTracerSettings {
         inject_nan: settings.inject_nan,
         ..Default::default()
     };
-    let lights = trace_light_paths(ts, &poisoned_paths, settings.light_paths_per_pass, seed, pass);
+    let lights = trace_light_paths(ts, &light_tracer, settings.light_paths_per_pass, seed, pass);
     let m = lights.paths.max(1) as f32;
     let r2 = pass_squared_radius(settings.radius, settings, pass);
     // The caustics' own light paths, one set for the photons and one for the beams (their
@@ -411,7 +411,7 @@ pub fn start_pass(
     let caustic_set = |paths: u32, salt: u32, keep: Keep| {
         if paths > 0 {
             let seed_c = beamlight_scene::rng::pcg_hash(seed ^ salt);
-            let tracer = LightTracerSettings { keep, ..poisoned_paths };
+            let tracer = LightTracerSettings { keep, ..light_tracer };
             trace_light_paths(ts, &tracer, paths, seed_c, pass)
         } else {
             Default::default()

@@ -254,7 +254,7 @@ fn trace_one(
                     power *= weight;
                     depth += 1;
                     if depth > max_depth || power == Rgb::ZERO {
-                        return true;
+                        return power.is_finite();
                     }
                     let p = o + d * t;
                     // HG is symmetric, so the same sampling serves light paths: `wo` points back
