@@ -40,6 +40,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         "test/media_probe.wgsl",
         include_str!("../../../shaders/test/media_probe.wgsl"),
     ),
+    (
+        "test/sampling_probe.wgsl",
+        include_str!("../../../shaders/test/sampling_probe.wgsl"),
+    ),
 ];
 
 /// The kernels: every source outside `lib/`.
