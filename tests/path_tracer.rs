@@ -636,7 +636,16 @@ fn relative_simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, rel: f64) -> f64 {
     let k = 8;
     let h = (b - a) / k as f64;
     let coarse: f64 = (0..=k)
-        .map(|i| f(a + i as f64 * h) * if i == 0 || i == k { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 })
+        .map(|i| {
+            f(a + i as f64 * h)
+                * if i == 0 || i == k {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                }
+        })
         .sum::<f64>()
         * h
         / 3.0;
@@ -663,7 +672,11 @@ fn direct_next_to_small_light(eye: Vec3, target: Vec3, fov: f32, sigma_s: f32, w
     let (lo, hi) = (Vec3::splat(-2.0), Vec3::splat(2.0));
     add_box_inward(&mut s, lo, hi, wall);
     let light = add_material(&mut s, emitter("light", radiance));
-    let (c, u, v) = (Vec3::new(-0.05, 0.0, -0.05), Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.1));
+    let (c, u, v) = (
+        Vec3::new(-0.05, 0.0, -0.05),
+        Vec3::new(0.1, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.1),
+    );
     add_quad(&mut s, c, u, v, light); // front face u × v = −y
     let film = render_pt(s, 4096, 11, Some(1));
 
@@ -672,7 +685,11 @@ fn direct_next_to_small_light(eye: Vec3, target: Vec3, fov: f32, sigma_s: f32, w
     let (c, u, v) = (c.as_dvec3(), u.as_dvec3(), v.as_dvec3());
     // The camera frame of `empty_scene`.
     let (eye, forward) = (eye.as_dvec3(), (target - eye).as_dvec3().normalize());
-    let up = if forward.y.abs() > 0.99 { glam::DVec3::Z } else { glam::DVec3::Y };
+    let up = if forward.y.abs() > 0.99 {
+        glam::DVec3::Z
+    } else {
+        glam::DVec3::Y
+    };
     let right = forward.cross(up).normalize();
     let up = right.cross(forward);
     let n = 2;
@@ -691,7 +708,13 @@ fn direct_next_to_small_light(eye: Vec3, target: Vec3, fov: f32, sigma_s: f32, w
                     t_plane
                 } else {
                     (0..3)
-                        .map(|k| if d[k] > 0.0 { (hi[k] as f64 - eye[k]) / d[k] } else { (lo[k] as f64 - eye[k]) / d[k] })
+                        .map(|k| {
+                            if d[k] > 0.0 {
+                                (hi[k] as f64 - eye[k]) / d[k]
+                            } else {
+                                (lo[k] as f64 - eye[k]) / d[k]
+                            }
+                        })
                         .fold(f64::INFINITY, f64::min)
                 };
                 // Radiance scattered towards the camera at p, per unit σs: over the solid
@@ -710,7 +733,11 @@ fn direct_next_to_small_light(eye: Vec3, target: Vec3, fov: f32, sigma_s: f32, w
                         let (dx, dz) = (phi.cos(), phi.sin());
                         let slab = |f: f64, d: f64, lo: f64, hi: f64| {
                             if d.abs() < 1e-15 {
-                                if (lo..=hi).contains(&f) { (f64::NEG_INFINITY, f64::INFINITY) } else { (1.0, 0.0) }
+                                if (lo..=hi).contains(&f) {
+                                    (f64::NEG_INFINITY, f64::INFINITY)
+                                } else {
+                                    (1.0, 0.0)
+                                }
                             } else {
                                 let (a, b) = ((lo - f) / d, (hi - f) / d);
                                 (a.min(b), a.max(b))
@@ -742,7 +769,9 @@ fn direct_next_to_small_light(eye: Vec3, target: Vec3, fov: f32, sigma_s: f32, w
                     cuts.push(0.0);
                     cuts.push(2.0 * PI);
                     cuts.sort_by(f64::total_cmp);
-                    cuts.windows(2).map(|w| relative_simpson(&over_phi, w[0], w[1], 1e-6)).sum::<f64>()
+                    cuts.windows(2)
+                        .map(|w| relative_simpson(&over_phi, w[0], w[1], 1e-6))
+                        .sum::<f64>()
                 };
                 let along = |t: f64| ss * (-st * t).exp() * in_scattered(eye + t * d);
                 // In pieces that shrink towards the ray's closest approach to the light, where
@@ -756,7 +785,10 @@ fn direct_next_to_small_light(eye: Vec3, target: Vec3, fov: f32, sigma_s: f32, w
                     .collect();
                 cuts.sort_by(f64::total_cmp);
                 cuts.dedup();
-                sum += cuts.windows(2).map(|w| relative_simpson(&along, w[0], w[1], 1e-5)).sum::<f64>();
+                sum += cuts
+                    .windows(2)
+                    .map(|w| relative_simpson(&along, w[0], w[1], 1e-5))
+                    .sum::<f64>();
                 if on_light {
                     sum += le * (-st * t_end).exp();
                 }
@@ -828,4 +860,26 @@ fn a_nan_throughput_is_counted_by_the_film() {
     };
     let film = beamlight_render::render(&ts, &opts, |_| true).unwrap().film;
     assert_eq!(film.rejected, 4 * 4 * 4, "every sample's path lost its throughput");
+}
+
+/// A light whose power is not finite cannot be chosen in proportion to it, so light selection
+/// never samples it (`Distribution1D` gives it no share): the light sampler counts it
+/// (`LightSampler::unusable`, which the command line prints as a warning) instead of the light
+/// vanishing unseen. Here a point lamp with a NaN intensity (the loader refuses that one; an
+/// emission whose power overflows f32 it does not) beside a sane one. Before, nothing counted
+/// it (the field did not exist; made to fail by counting nothing: 0).
+#[test]
+fn a_light_that_cannot_be_sampled_is_counted() {
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 30.0, 4, 4);
+    let floor = add_material(&mut s, lambert("floor", 0.5));
+    add_quad(&mut s, Vec3::new(-2.0, -2.0, 0.0), Vec3::X * 4.0, Vec3::Y * 4.0, floor);
+    for intensity in [f32::NAN, 1.0] {
+        s.lights.push(PunctualLight::Point {
+            position: Vec3::new(0.0, 0.0, 1.0),
+            intensity: Rgb::splat(intensity),
+        });
+    }
+    let ts = beamlight_trace::TraceScene::new(s);
+    assert_eq!(ts.lights.unusable, 1);
+    assert!(!ts.lights.is_empty(), "the sane lamp is still sampled");
 }

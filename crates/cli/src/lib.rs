@@ -424,6 +424,13 @@ fn render(args: RenderArgs, start: Instant) -> Result<()> {
             args.scene.display()
         );
     }
+    if ts.lights.unusable > 0 {
+        eprintln!(
+            "warning: {}: {} light(s) with a power that is not finite (an emission too large for f32?) are never sampled",
+            args.scene.display(),
+            ts.lights.unusable
+        );
+    }
     let opening = Instant::now();
     let (gpu, backend) = choose_backend(args.backend, method, &ts)?;
     let gpu_time = opening.elapsed();

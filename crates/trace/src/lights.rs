@@ -84,6 +84,9 @@ pub struct LightSampler {
     select: sampling::Distribution1D,
     /// Selection probability of each scene triangle (0 for non-emitters), for MIS on hits.
     tri_pmf: Vec<f32>,
+    /// Lights whose power is not finite (a NaN or an overflowing emission): light selection
+    /// cannot weigh them, so they are never sampled, and this says so (the command line warns).
+    pub unusable: u32,
 }
 
 impl LightSampler {
@@ -119,6 +122,9 @@ impl LightSampler {
             lights.push(LightRef::Punctual(i as u32));
             power.push(l.power(radius));
         }
+        // A light whose power is NaN or infinite cannot be chosen in proportion to it:
+        // `Distribution1D` gives it no share. Counted, not silent.
+        let unusable = power.iter().filter(|p| !p.is_finite()).count() as u32;
         let select = sampling::Distribution1D::new(&power);
         // Emissive triangles come first in `lights`: area light `a` is selection entry `a`.
         let mut tri_pmf = vec![0.0; scene.triangles.len()];
@@ -134,6 +140,7 @@ impl LightSampler {
             radius,
             select,
             tri_pmf,
+            unusable,
         }
     }
 
