@@ -66,11 +66,6 @@ fn homogeneous_transmittance(sigma_t: vec3<f32>, t: f32) -> vec3<f32> {
     return select(exp(-sigma_t * t), vec3<f32>(1.0), sigma_t == vec3<f32>(0.0));
 }
 
-// Ratio tracking through a density grid for one group of channels (`mask`, extinction
-// `sigma_g` = σt · mask, majorant scale `sigma_max`; `media::transmittance_counted`'s loop
-// body): `walk_majorant_cells` with the body of `tentative_collisions` and of the walk's
-// closure written inline (WGSL has no closures), in the same order, so the same draws land on
-// the same collisions. Channels outside the group keep a factor of exactly 1.
 // `media::MAJORANT_SLACK` and `media::null_fraction`, per channel: a ratio-tracking factor is
 // ≥ 0 under a true majorant; rounding below 0 becomes 0, anything further below (a majorant too
 // small) NaN, and a NaN stays NaN, for the gathers' `admit` to count.
@@ -83,6 +78,11 @@ fn null_fraction(v: vec3<f32>) -> vec3<f32> {
     return select(rounded, nan, v < vec3<f32>(-MAJORANT_SLACK));
 }
 
+// Ratio tracking through a density grid for one group of channels (`mask`, extinction
+// `sigma_g` = σt · mask, majorant scale `sigma_max`; `media::transmittance_counted`'s loop
+// body): `walk_majorant_cells` with the body of `tentative_collisions` and of the walk's
+// closure written inline (WGSL has no closures), in the same order, so the same draws land on
+// the same collisions. Channels outside the group keep a factor of exactly 1.
 fn ratio_tracking(m: Medium, o: vec3<f32>, d: vec3<f32>, tmax: f32, sigma_g: vec3<f32>, sigma_max: f32, mask: vec3<f32>, s: ptr<function, Sampler>) -> vec3<f32> {
     let sigma_t = sigma_g;
     let rest = vec3<f32>(1.0) - mask;
