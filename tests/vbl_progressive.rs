@@ -165,40 +165,36 @@ fn vbl_bias_vanishes_as_passes_go_on() {
     // The whole image is the components' sum: its reference and error from the split's.
     let ref_image = ref_mean.iter().sum::<DVec3>();
     let ref_image_se = ref_se.iter().map(|e| *e * *e).sum::<DVec3>().powf(0.5);
-    // Per checkpoint, per component and then the image: the sum and the sum of squares of
-    // the seeds' image means.
-    let mut sums = [[(DVec3::ZERO, DVec3::ZERO); N + 1]; CHECKPOINTS.len()];
+    // Per checkpoint: each seed's component means, and its image mean (in slot 0).
+    let mut seeds: [(BatchMeans, BatchMeans); CHECKPOINTS.len()] = Default::default();
     for seed in 0..SEEDS {
         render(&ts, &options(Method::Vbl, w, h, 64, 64, 100 + seed), |progress| {
             if let Some(k) = CHECKPOINTS.iter().position(|&p| p == progress.passes) {
-                let films = progress.components.iter().chain([progress.film]);
-                for (c, film) in films.enumerate() {
-                    let v = film.image().mean().as_dvec3();
-                    sums[k][c].0 += v;
-                    sums[k][c].1 += v * v;
-                }
+                let mean = |film: &Film| film.image().mean().as_dvec3();
+                seeds[k].0.push(&std::array::from_fn(|c| mean(&progress.components[c])));
+                let mut image = [DVec3::ZERO; N];
+                image[0] = mean(progress.film);
+                seeds[k].1.push(&image);
             }
             true
         })
         .unwrap();
     }
-    let s = SEEDS as f64;
     let mut failed = Vec::new();
     for (k, &passes) in CHECKPOINTS.iter().enumerate() {
+        let (components, image) = &seeds[k];
+        let (means, errors) = (components.means(), components.standard_errors());
         let names = Component::ALL.iter().map(|c| c.name()).chain(["image"]);
         for (c, name) in names.enumerate() {
-            let (reference, reference_se) = if c < N {
-                (ref_mean[c], ref_se[c])
+            let (mean, error, reference, reference_se) = if c < N {
+                (means[c], errors[c], ref_mean[c], ref_se[c])
             } else {
-                (ref_image, ref_image_se)
+                (image.means()[0], image.standard_errors()[0], ref_image, ref_image_se)
             };
             if reference.max_element() <= 0.0 {
                 continue; // no light in this component here (caustics: no glass)
             }
-            let (sum, sum_sq) = sums[k][c];
-            let mean = sum / s;
-            let var_of_mean = ((sum_sq / s - mean * mean) * (s / (s - 1.0)) / s).max(DVec3::ZERO);
-            let se = (var_of_mean + reference_se * reference_se).powf(0.5);
+            let se = (error * error + reference_se * reference_se).powf(0.5);
             let z = ((mean - reference) / se.max(DVec3::splat(1e-12))).abs().max_element();
             eprintln!(
                 "vbl after {passes:>2} passes, {name:<15} {:.4} vs pt {:.4}, relative error {:.3} (z {z:.2})",
@@ -267,8 +263,8 @@ fn vbl_furnace_converges_to_two() {
             failed.push(name.to_string());
         }
     };
-    // Per near-delta g: the seeds' means, and their batch-mean errors.
-    let mut pooled: Vec<(String, Vec<(DVec3, DVec3)>)> = Vec::new();
+    // Per near-delta g: the seeds' image means (slot 0), and their batch-mean errors.
+    let mut pooled: Vec<(String, BatchMeans, Vec<DVec3>)> = Vec::new();
     for (name, ts, opts) in &cases {
         let run = render_with_errors(ts, opts, 16);
         assert_eq!(run.result.film.rejected, 0);
@@ -277,21 +273,25 @@ fn vbl_furnace_converges_to_two() {
             Default::default(),
             "estimates discarded per component, light paths dropped"
         );
-        match name.split_once(", seed ") {
-            None => judge(name, run.image, run.image_error),
-            Some((case, _)) => match pooled.iter_mut().find(|(c, _)| c == case) {
-                Some((_, runs)) => runs.push((run.image, run.image_error)),
-                None => pooled.push((case.to_string(), vec![(run.image, run.image_error)])),
-            },
-        }
+        let Some((case, _)) = name.split_once(", seed ") else {
+            judge(name, run.image, run.image_error);
+            continue;
+        };
+        let k = pooled.iter().position(|(c, _, _)| c == case).unwrap_or_else(|| {
+            pooled.push((case.to_string(), BatchMeans::default(), Vec::new()));
+            pooled.len() - 1
+        });
+        let (_, seeds, errors) = &mut pooled[k];
+        let mut image = [DVec3::ZERO; 7];
+        image[0] = run.image;
+        seeds.push(&image);
+        errors.push(run.image_error);
     }
-    for (case, runs) in &pooled {
-        let n = runs.len() as f64;
-        let mean = runs.iter().map(|r| r.0).sum::<DVec3>() / n;
-        let batch_se = runs.iter().map(|r| r.1 * r.1).sum::<DVec3>().powf(0.5) / n;
-        let spread = runs.iter().map(|r| (r.0 - mean) * (r.0 - mean)).sum::<DVec3>() / (n - 1.0);
-        let seed_se = (spread / n).powf(0.5);
-        judge(&format!("{case}, {n} seeds"), mean, batch_se.max(seed_se));
+    for (case, seeds, errors) in &pooled {
+        let n = errors.len() as f64;
+        let batch_se = errors.iter().map(|e| *e * *e).sum::<DVec3>().powf(0.5) / n;
+        let seed_se = seeds.standard_errors()[0];
+        judge(&format!("{case}, {n} seeds"), seeds.means()[0], batch_se.max(seed_se));
     }
     assert!(
         failed.is_empty(),

@@ -425,6 +425,12 @@ impl BatchMeans {
         *last = (*cumulative, passes);
     }
 
+    /// The overall mean, per component (the mean of the batch means: batches of equal size).
+    pub fn means(&self) -> [DVec3; 7] {
+        let k = self.batches.len() as f64;
+        std::array::from_fn(|c| self.batches.iter().map(|b| b[c]).sum::<DVec3>() / k)
+    }
+
     pub fn standard_errors(&self) -> [DVec3; 7] {
         let k = self.batches.len() as f64;
         assert!(k >= 2.0, "need at least two batches");
