@@ -148,14 +148,7 @@ fn bundled_scenes_render_finite_images_with_metadata() {
 fn same_seed_same_image_on_any_number_of_threads_and_either_backend() {
     let dir = tempfile::tempdir().unwrap();
     let scene = common::write_glass_ball_scene(dir.path());
-    let gpu = !beamlight_gpu::device::adapters().is_empty();
-    if !gpu {
-        assert!(
-            !beamlight_gpu::device::required_by_environment(),
-            "CI=true and no Vulkan adapter"
-        );
-        beamlight_gpu::device::report_skipped_test(&format!("no Vulkan adapter; {}", beamlight_gpu::device::LAVAPIPE));
-    }
+    let gpu = beamlight_gpu::device::adapter_for_tests();
     let layers = |method: &str, backend: &str, threads: &str| {
         let out = dir.path().join(format!("{method}-{backend}-{threads}.exr"));
         let mut args = vec![
@@ -740,12 +733,7 @@ fn backend_choice_with_and_without_an_adapter() {
     let o = without_adapter("auto");
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("backend cpu (no Vulkan adapter)"), "{}", stderr(&o));
-    if beamlight_gpu::device::adapters().is_empty() {
-        assert!(
-            !beamlight_gpu::device::required_by_environment(),
-            "CI=true and no Vulkan adapter"
-        );
-        beamlight_gpu::device::report_skipped_test(&format!("no Vulkan adapter; {}", beamlight_gpu::device::LAVAPIPE));
+    if !beamlight_gpu::device::adapter_for_tests() {
         return;
     }
     let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
@@ -1131,14 +1119,7 @@ fn injected_nans_are_counted_through_every_output() {
             .collect()
     };
     let json_want = |passes: u64| [vec![passes; Component::ALL.len()], vec![3 * passes]].concat();
-    let gpu = !beamlight_gpu::device::adapters().is_empty();
-    if !gpu {
-        assert!(
-            !beamlight_gpu::device::required_by_environment(),
-            "CI=true and no Vulkan adapter"
-        );
-        beamlight_gpu::device::report_skipped_test(&format!("no Vulkan adapter; {}", beamlight_gpu::device::LAVAPIPE));
-    }
+    let gpu = beamlight_gpu::device::adapter_for_tests();
     for method in ["vbl", "vrl"] {
         for backend in if gpu { &["cpu", "gpu"][..] } else { &["cpu"][..] } {
             let out = format!("{method}-{backend}.exr");

@@ -136,6 +136,22 @@ impl Kernel {
             layouts: groups,
         })
     }
+
+    /// Submits one untimed dispatch of `workgroups` (x, y) with bind group `i` set to
+    /// `groups[i]` (the test kernels' one-shot runs; the renderer's dispatches are timed and
+    /// chunked in `gather` and `rays`).
+    pub fn dispatch(&self, gpu: &Gpu, groups: &[&wgpu::BindGroup], (x, y): (u32, u32)) {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            for (i, group) in groups.iter().enumerate() {
+                pass.set_bind_group(i as u32, *group, &[]);
+            }
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+    }
 }
 
 /// Workgroups `(x, y)` covering `n` invocations, and the invocations per row (`x · 64`) the

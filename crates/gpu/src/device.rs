@@ -179,8 +179,21 @@ pub fn for_tests() -> Option<Gpu> {
     }
 }
 
+/// Whether a test's GPU half can run: true with an adapter; false without one outside CI (the
+/// skip reported where the person running `cargo test` sees it); a panic without one in CI.
+/// For tests that only need to know (they run the binary with `--backend gpu`); those that
+/// open the GPU themselves use [`for_tests`].
+pub fn adapter_for_tests() -> bool {
+    if !adapters().is_empty() {
+        return true;
+    }
+    assert!(!required_by_environment(), "CI=true and no Vulkan adapter");
+    report_skipped_test(&format!("no Vulkan adapter; {LAVAPIPE}"));
+    false
+}
+
 /// How to get a Vulkan adapter on a machine without a GPU.
-pub const LAVAPIPE: &str = "install lavapipe (apt-get install mesa-vulkan-drivers) to run it";
+const LAVAPIPE: &str = "install lavapipe (apt-get install mesa-vulkan-drivers) to run it";
 
 /// Tells the person running `cargo test` that the current test, or part of it, did not run and
 /// why (`reason`, with the remedy). Written to the process's stderr directly: the test harness

@@ -373,15 +373,7 @@ fn gpu_answers(gpu: &Gpu, scene: &GpuScene, queries: &[MediaQuery]) -> Vec<[f32;
     let input = compute::storage(gpu, "media queries", queries).unwrap();
     let output = compute::output::<[f32; 4]>(gpu, "media results", queries.len()).unwrap();
     let group = compute::bind_group(gpu, "media batch", &kernel.layouts[1], &[&params, &input, &output]);
-    let mut encoder = gpu.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&kernel.pipeline);
-        pass.set_bind_group(0, &scene.bind_group, &[]);
-        pass.set_bind_group(1, &group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-    }
-    gpu.queue.submit([encoder.finish()]);
+    kernel.dispatch(gpu, &[&scene.bind_group, &group], (x, y));
     compute::read_back(gpu, &output, queries.len()).unwrap()
 }
 

@@ -41,14 +41,7 @@ fn wgsl_rng_matches_cpu_bit_for_bit() {
         let bits = compute::output::<u32>(&gpu, "bits", count as usize).unwrap();
         let floats = compute::output::<f32>(&gpu, "floats", count as usize).unwrap();
         let group = compute::bind_group(&gpu, "rng", &kernel.layouts[0], &[&params, &bits, &floats]);
-        let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&kernel.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-        gpu.queue.submit([encoder.finish()]);
+        kernel.dispatch(&gpu, &[&group], (x, y));
         let gpu_bits: Vec<u32> = compute::read_back(&gpu, &bits, count as usize).unwrap();
         let gpu_floats: Vec<f32> = compute::read_back(&gpu, &floats, count as usize).unwrap();
         for k in 0..count {

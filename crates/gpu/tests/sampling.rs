@@ -78,14 +78,7 @@ fn equiangular_matches_cpu_near_and_far() {
     let input = compute::storage(&gpu, "equiangular queries", &queries).unwrap();
     let output = compute::output::<[f32; 2]>(&gpu, "equiangular results", queries.len()).unwrap();
     let group = compute::bind_group(&gpu, "sampling batch", &kernel.layouts[0], &[&params, &input, &output]);
-    let mut encoder = gpu.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&kernel.pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-    }
-    gpu.queue.submit([encoder.finish()]);
+    kernel.dispatch(&gpu, &[&group], (x, y));
     let gpu_results: Vec<[f32; 2]> = compute::read_back(&gpu, &output, queries.len()).unwrap();
     let (mut uniform, mut beyond, mut worst) = (0, Vec::new(), 0.0f32);
     for (k, (q, g)) in queries.iter().zip(&gpu_results).enumerate() {
