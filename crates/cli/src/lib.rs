@@ -229,8 +229,9 @@ struct RenderArgs {
     #[arg(long, default_value_t = 0.7)]
     alpha: f32,
     /// Testing only (hidden): the many-light methods poison the first record of each gather
-    /// of every pass with a NaN, on the CPU and the GPU, so that a test can read the discard
-    /// counts back through `--stats`, `--stats-json` and the EXR header.
+    /// of every pass with a NaN, on the CPU and the GPU, and the first path of each light set,
+    /// so that a test can read the counts back through `--stats`, `--stats-json` and the EXR
+    /// header.
     #[arg(long, hide = true)]
     inject_nan: bool,
     /// Save the accumulators (running sums, pass count, settings) to FILE every
