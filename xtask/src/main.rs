@@ -15,6 +15,9 @@
 //!   passes): minutes, not part of CI.
 //! * `bench [OPTIONS]`: run time against error for every method and backend and for Mitsuba 3,
 //!   against cached path-traced references (`xtask/src/bench/`, `docs/benchmarks.md`).
+//! * `fingerprint [--out FILE] [--against FILE]`: every bundled scene at 24² and 3 passes with
+//!   every method and backend, one hash of each image's pixels; `--against` fails on any image
+//!   that is not bit for bit the same as before (for changes that should move no number).
 //! * `cluster [--keep]`: split renders on a one-node Slurm cluster started on this machine
 //!   (installs slurm-wlm and munge with apt-get when missing): the README's job-array script,
 //!   merged and compared bit for bit with a one-go render; a cancelled task refused by `merge`
@@ -27,6 +30,7 @@ mod assets;
 mod bad_scenes;
 mod bench;
 mod cluster;
+mod fingerprint;
 mod glass_scenes;
 mod showcase;
 
@@ -39,7 +43,9 @@ commands:
   stress                the numerical stress grid (tests/stress.rs) at full size
   fuzz [SECONDS]        fuzz the scene loaders (fuzz/), each target for SECONDS (60)
   bench [OPTIONS]       run time against error per scene and method (bench --help)
-  cluster [--keep]      split render on a one-node Slurm cluster (apt-installs slurm-wlm, munge)";
+  cluster [--keep]      split render on a one-node Slurm cluster (apt-installs slurm-wlm, munge)
+  fingerprint [--out F] [--against F]
+                        hash every bundled scene's image per method and backend (bit-identity)";
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -54,6 +60,9 @@ fn main() -> Result<()> {
     }
     if args.first().is_some_and(|a| a == "bench") {
         return bench::main(&root(), &args[1..]);
+    }
+    if args.first().is_some_and(|a| a == "fingerprint") {
+        return fingerprint::main(&root(), &args[1..]);
     }
     if args.first().is_some_and(|a| a == "cluster") {
         return cluster::main(&root(), &args[1..]);
@@ -79,6 +88,21 @@ fn main() -> Result<()> {
         Some(other) => bail!("unknown command '{other}'\n\n{USAGE}"),
         None => bail!("{USAGE}"),
     }
+}
+
+/// Builds `target/release/beamlight` (what the bench and the fingerprints run).
+fn build_release_binary(root: &Path) -> Result<()> {
+    eprintln!("building the release binary");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run(Command::new(cargo).current_dir(root).args([
+        "build",
+        "--release",
+        "--quiet",
+        "--package",
+        "beamlight",
+        "--bin",
+        "beamlight",
+    ]))
 }
 
 /// The workspace root (the parent of this crate's directory).

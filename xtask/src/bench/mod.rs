@@ -233,17 +233,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
     for d in [&results, &work, &cache] {
         std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
     }
-    eprintln!("bench: building the release binary");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    runs::timed(Command::new(cargo).current_dir(root).args([
-        "build",
-        "--release",
-        "--quiet",
-        "--package",
-        "beamlight",
-        "--bin",
-        "beamlight",
-    ]))?;
+    crate::build_release_binary(root)?;
     let bin = root.join("target/release/beamlight");
     let script = root.join("bench/mitsuba_render.py");
     let mitsuba = if o.mitsuba {
