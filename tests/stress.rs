@@ -245,7 +245,7 @@ fn vbl_furnace_within_one_percent_at_every_radius() {
     let mut failed = Vec::new();
     for (g, scale) in cases {
         let ts = TraceScene::new(furnace(Rgb::ONE, g, None));
-        let r0 = beamlight_render::many_lights::default_radius(&ts.scene) * scale;
+        let r0 = beamlight_render::radius::default_radius(&ts.scene) * scale;
         let means: Vec<f64> = (0..seeds)
             .map(|seed| {
                 let opts = RenderOptions {

@@ -238,7 +238,7 @@ fn vbl_furnace_converges_to_two() {
         let mut opts = options(Method::Vbl, 8, 8, 512, 64, 5);
         opts.many_lights.alpha = 0.99;
         let ts = Rc::new(TraceScene::new(furnace(Rgb::ONE, g, None)));
-        opts.many_lights.radius = beamlight_render::many_lights::default_radius(&ts.scene);
+        opts.many_lights.radius = beamlight_render::radius::default_radius(&ts.scene);
         cases.push((format!("σs = 1, g = {g}, R = R0"), ts, opts));
     }
     // Near-delta phase functions (issue 15 item 3), at default settings: the camera paths'

@@ -4,14 +4,21 @@
 //! Data flows one way: scene → tracing → estimators → accumulators ([`film`]) → image ([`output`]).
 pub mod accum;
 pub mod auto;
+pub mod combine;
 pub mod compare;
 pub mod components;
 pub mod film;
 pub mod many_lights;
+pub mod method;
+pub mod options;
 pub mod output;
 pub mod progressive;
 pub mod radius;
+pub mod schedule;
 pub mod sheet;
+pub mod source;
 
 pub use film::{Film, Image};
-pub use progressive::{Budget, Method, Progress, RenderOptions, RenderResult, render, render_from};
+pub use method::Method;
+pub use options::{Budget, RenderOptions};
+pub use progressive::{Progress, RenderResult, render, render_from};

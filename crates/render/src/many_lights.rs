@@ -7,7 +7,7 @@
 //! Caustics come from the same light paths: progressive photon mapping over the caustic
 //! photons and progressive photon beams over the beams that leave specular bounces, with the
 //! pass's radius from the schedule of eq. 11 ([`crate::radius`]).
-use crate::radius::squared_radius;
+use crate::radius::paths_squared_radius;
 use beamlight_gpu::{
     GpuBackend, GpuError,
     gather::{GatherInputs, GatherKernel, KERNELS, PendingGathers},
@@ -173,40 +173,12 @@ pub fn default_clamp(scene: &beamlight_scene::Scene) -> f32 {
     if diagonal.is_finite() { 0.05 * diagonal } else { 0.0 }
 }
 
-/// The default initial VBL/VSL radius R0: 10 % of the diagonal of the scene's bounds. Eq. 11
-/// makes R0 the radius of a pass with a single light path; with M paths per pass the first
-/// pass already uses about R0 · M^((α−1)/2) (0.56 R0 for M = 64, α = 0.7), and 1000 passes
-/// later 0.14 R0. The paper leaves R0 to the user; a sphere must be wide compared with the
-/// distances at which a glossy surface or a forward-scattering medium would make a virtual
-/// light's contribution spike, which is what a tenth of the scene is meant to be (measured
-/// in `tests/vbl_progressive.rs`: 2.5 % left such spikes in a glossy-floored fog box).
-pub fn default_radius(scene: &beamlight_scene::Scene) -> f32 {
-    0.1 * diagonal(scene)
-}
-
-/// The default initial photon-mapping radius: 2.5 % of the scene's diagonal (caustics are
-/// sharp, and photons are density-estimated, not connected: no singularity to spread).
-pub fn default_photon_radius(scene: &beamlight_scene::Scene) -> f32 {
-    0.025 * diagonal(scene)
-}
-
-fn diagonal(scene: &beamlight_scene::Scene) -> f32 {
-    let (lo, hi) = scene.bounds();
-    let d = (hi - lo).length();
-    if d.is_finite() && d > 0.0 { d } else { 1.0 }
-}
-
 /// The squared radius of pass `pass` (0-based) for initial radius `r0` and these settings'
 /// light paths per pass (M) and α, from eq. 11 in log space.
 pub fn pass_squared_radius(r0: f32, settings: &ManyLightSettings, pass: u32) -> f32 {
     paths_squared_radius(r0, settings.alpha, settings.light_paths_per_pass, pass)
 }
 
-/// The squared radius of pass `pass` (0-based) for initial radius `r0`, `paths` light paths
-/// per pass and α, from eq. 11 in log space.
-pub fn paths_squared_radius(r0: f32, alpha: f32, paths: u32, pass: u32) -> f32 {
-    squared_radius(r0 as f64, alpha as f64, paths.max(1) as u64, pass as u64 + 1) as f32
-}
 
 const N: usize = Component::ALL.len();
 
@@ -333,8 +305,14 @@ pub struct PassInFlight {
 }
 
 impl PassInFlight {
-    /// Waits for the pass's GPU gathers (if any) and writes the whole pass into `out`.
-    pub fn finish(mut self, gpu: Option<&GpuBackend>, out: &mut [Vec<Rgb>; N]) -> Result<PassTimes, GpuError> {
+    /// Whether gathers of the pass run on the GPU (and [`PassInFlight::finish`] waits for them).
+    pub fn on_gpu(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// Waits for the pass's GPU gathers (if any) and writes the whole pass into `out`, one
+    /// buffer per component in [`Component::ALL`] order.
+    pub fn finish(mut self, gpu: Option<&GpuBackend>, out: &mut [Vec<Rgb>]) -> Result<PassTimes, GpuError> {
         if let Some(pending) = self.pending {
             let gpu = gpu.expect("a pass with GPU work needs its GPU to finish");
             let clock = Instant::now();
@@ -356,8 +334,9 @@ impl PassInFlight {
                 self.times.discarded.estimates[component as usize] += g.discarded[kernel as usize];
             }
         }
-        for (dst, src) in out.iter_mut().zip(&self.out) {
-            dst.copy_from_slice(src);
+        assert_eq!(out.len(), N, "one output buffer per component");
+        for (dst, src) in out.iter_mut().zip(&mut self.out) {
+            std::mem::swap(dst, src);
         }
         Ok(self.times)
     }

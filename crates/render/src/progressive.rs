@@ -1,77 +1,21 @@
-//! The progressive loop: independent passes, each a pure function of
-//! `(scene, settings, seed, pass index)`, averaged into a [`Film`] until the budget runs out.
+//! The progressive loop: passes, each a pure function of `(scene, settings, seed, pass
+//! index)`, from the method's sources ([`crate::source`]), in the order and combination its
+//! schedule decides ([`crate::schedule`], [`crate::auto`]), until the budget runs out. The loop
+//! owns the budget, the progress reports and the overlap: while a pass's GPU gathers run, the
+//! next pass is traced and estimated on the CPU.
 use crate::{
     Film,
     accum::Accumulators,
-    many_lights::{self, Discards, ManyLightSettings, PassInFlight, PassTimes, VirtualLights},
+    auto::{self, Auto, AutoReport, AutoSums},
+    many_lights::{Discards, PassTimes},
+    method::Method,
+    options::{Budget, RenderOptions},
+    schedule::{EveryPass, Remaining, Schedule, Step},
+    source::{InFlight, ManyLights, N, PassOutput, PassSource, PathTracer},
 };
-use beamlight_gpu::GpuBackend;
-use beamlight_scene::{Rgb, rng::Sampler};
-use beamlight_trace::{
-    TraceScene,
-    components::Component,
-    pt::{self, PathTracerSettings},
-};
-use rayon::prelude::*;
-use std::sync::Arc;
+use beamlight_trace::TraceScene;
+use std::collections::VecDeque;
 use std::time::{Duration, Instant};
-
-/// Estimator family (`--method`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Unbiased volumetric path tracer (ground truth).
-    Pt,
-    /// Unclamped virtual ray lights + virtual point lights.
-    Vrl,
-    /// Clamped VRLs + VPLs.
-    VrlClamped,
-    /// Progressive virtual beam lights + virtual spherical lights.
-    Vbl,
-    /// Each component from `pt` and `vbl`, combined by their measured errors, with the time
-    /// going where it lowers the error most ([`crate::auto`]).
-    Auto,
-}
-
-impl Method {
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Pt => "pt",
-            Method::Vrl => "vrl",
-            Method::VrlClamped => "vrl-clamped",
-            Method::Vbl => "vbl",
-            Method::Auto => "auto",
-        }
-    }
-}
-
-/// When to stop.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Budget {
-    /// Exactly this many passes (for `pt` one pass is one sample per pixel).
-    Passes(u64),
-    /// Stop before the wall-clock time since `RenderOptions::start` would exceed this; at
-    /// least one pass is always rendered.
-    Time(Duration),
-}
-
-#[derive(Clone, Debug)]
-pub struct RenderOptions {
-    pub method: Method,
-    pub width: u32,
-    pub height: u32,
-    pub budget: Budget,
-    pub seed: u32,
-    /// First pass index (ranges of passes can be rendered separately and averaged).
-    pub first_pass: u64,
-    pub path_tracer: PathTracerSettings,
-    /// The moment the time budget counts from (process start, so start-up is included).
-    pub start: Instant,
-    /// Also accumulate each transport component separately (`RenderResult::components`).
-    pub components: bool,
-    pub many_lights: ManyLightSettings,
-    /// The GPU that runs the gathers it has kernels for; `None` renders on the CPU alone.
-    pub gpu: Option<Arc<GpuBackend>>,
-}
 
 pub struct RenderResult {
     pub film: Film,
@@ -82,7 +26,7 @@ pub struct RenderResult {
     /// Where each many-light pass's time went (empty for `pt`).
     pub pass_times: Vec<PassTimes>,
     /// `--method auto`: where each component's estimate came from.
-    pub auto: Option<crate::auto::AutoReport>,
+    pub auto: Option<AutoReport>,
     /// Estimates discarded per component over the whole render ([`PassTimes::discarded`]):
     /// its passes and those of the checkpoint it continued.
     pub discarded: Discards,
@@ -103,8 +47,8 @@ pub struct Progress<'a> {
     pub discarded: Discards,
     /// `--method auto`: where each component's estimate came from so far, and the running
     /// sums behind it (for checkpoints).
-    pub auto: Option<&'a crate::auto::AutoReport>,
-    pub auto_sums: Option<&'a crate::auto::AutoSums>,
+    pub auto: Option<&'a AutoReport>,
+    pub auto_sums: Option<&'a AutoSums>,
 }
 
 /// Renders until the budget is spent, calling `on_pass` after each pass; when it returns
@@ -124,38 +68,193 @@ pub fn render_from(
     ts: &TraceScene,
     opts: &RenderOptions,
     resume: Option<&Accumulators>,
-    mut on_pass: impl FnMut(&Progress) -> bool,
+    on_pass: impl FnMut(&Progress) -> bool,
 ) -> Result<RenderResult, String> {
-    // `vrl` is unclamped by definition; `vrl-clamped` uses the given distance or the default.
-    let specular = crate::components::SceneFeatures::of(&ts.scene).specular_surfaces;
-    let many_light_settings = ManyLightSettings {
-        lights: match opts.method {
-            Method::Vbl | Method::Auto => VirtualLights::Beams,
-            _ => VirtualLights::Rays,
+    let (sources, schedule) = setup(ts, opts, resume)?;
+    let mut run = Run {
+        schedule,
+        on_pass,
+        started: Instant::now(),
+        total: match opts.budget {
+            Budget::Passes(n) => Some(n),
+            Budget::Time(_) => None,
         },
-        clamp: match opts.method {
-            Method::VrlClamped if opts.many_lights.clamp > 0.0 => opts.many_lights.clamp,
-            Method::VrlClamped => many_lights::default_clamp(&ts.scene),
-            _ => 0.0,
-        },
-        radius: if opts.many_lights.radius > 0.0 {
-            opts.many_lights.radius
+        passes: 0,
+        steps_left: VecDeque::new(),
+        pass_times: Vec::new(),
+        discarded: resume.map_or(Discards::default(), |acc| acc.discarded),
+        last_finish: Instant::now(),
+        free: Vec::new(),
+    };
+    let pixels = (opts.width * opts.height) as usize;
+    // Started steps not yet finished: between units, at most the newest, while its GPU work
+    // runs.
+    let mut in_flight: VecDeque<Started> = VecDeque::new();
+    let mut planned = 0u64;
+    'render: loop {
+        let remaining = match opts.budget {
+            Budget::Passes(n) => (planned < n).then_some(Remaining::Passes),
+            Budget::Time(limit) => Some(Remaining::Time {
+                left: limit.as_secs_f64() - opts.start.elapsed().as_secs_f64(),
+                limit: limit.as_secs_f64(),
+            }),
+        };
+        let pending = in_flight.back().map(|s| s.step);
+        let Some(steps) = remaining.and_then(|r| run.schedule.plan(r, pending.as_ref())) else {
+            // Nothing to start now: finish what is in flight and ask again, or end.
+            if in_flight.is_empty() {
+                break;
+            }
+            while let Some(s) = in_flight.pop_front() {
+                if !run.finish(s)? {
+                    break 'render;
+                }
+            }
+            continue;
+        };
+        planned += 1;
+        if steps.is_empty() {
+            // Nothing to run in this unit (a schedule with nothing left to estimate): it is
+            // done as planned.
+            if !run.unit_done() {
+                break;
+            }
+            continue;
+        }
+        run.steps_left.push_back(steps.len());
+        for step in steps {
+            let clock = Instant::now();
+            let out = run.free.pop().unwrap_or_else(|| PassOutput::new(pixels));
+            let flight = sources[step.source].start(step.pass, step.components, out)?;
+            in_flight.push_back(Started {
+                step,
+                flight,
+                held: clock.elapsed(),
+            });
+            // Keep only the newest step in flight, and only while the GPU works on it.
+            while in_flight.len() > 1 || in_flight.front().is_some_and(|s| !s.flight.pending()) {
+                let s = in_flight.pop_front().expect("not empty");
+                if !run.finish(s)? {
+                    // A pass still in flight is dropped unfinished.
+                    break 'render;
+                }
+            }
+        }
+    }
+    let outcome = run.schedule.outcome();
+    Ok(RenderResult {
+        film: outcome.film,
+        components: if opts.components {
+            outcome.components
         } else {
-            many_lights::default_radius(&ts.scene)
+            Vec::new()
         },
-        // Without mirrors or glass there are no caustics: no light paths for them.
-        caustic_paths: if specular {
-            opts.many_lights.caustic_paths
-        } else {
-            Some(0)
-        },
-        beam_paths: if specular { opts.many_lights.beam_paths } else { 0 },
-        photon_radius: if opts.many_lights.photon_radius > 0.0 {
-            opts.many_lights.photon_radius
-        } else {
-            many_lights::default_photon_radius(&ts.scene)
-        },
-        ..opts.many_lights
+        passes: run.passes,
+        elapsed: run.started.elapsed(),
+        pass_times: run.pass_times,
+        auto: outcome.auto,
+        discarded: run.discarded,
+    })
+}
+
+/// A render's pass sources, indexed by [`Step::source`].
+type Sources<'a> = Vec<Box<dyn PassSource + 'a>>;
+
+/// A started step.
+struct Started<'a> {
+    step: Step,
+    flight: Box<dyn InFlight + 'a>,
+    /// How long its start took.
+    held: Duration,
+}
+
+/// The loop's state apart from what is in flight.
+struct Run<'a, F> {
+    schedule: Box<dyn Schedule + 'a>,
+    on_pass: F,
+    started: Instant,
+    total: Option<u64>,
+    /// Units (passes) done.
+    passes: u64,
+    /// Steps not yet finished of each planned unit, oldest first.
+    steps_left: VecDeque<usize>,
+    pass_times: Vec<PassTimes>,
+    discarded: Discards,
+    last_finish: Instant,
+    /// Output buffers of finished steps, for the next ones.
+    free: Vec<PassOutput>,
+}
+
+impl<F: FnMut(&Progress) -> bool> Run<'_, F> {
+    /// Finishes a step and hands it to the schedule; after a unit's last step, reports
+    /// progress. False when the caller asked to stop.
+    fn finish(&mut self, s: Started) -> Result<bool, String> {
+        let clock = Instant::now();
+        let mut finished = s.flight.finish()?;
+        let seconds = (s.held + clock.elapsed()).as_secs_f64();
+        if let Some(times) = &mut finished.times {
+            times.wall = self.last_finish.elapsed();
+            self.discarded.add(&times.discarded);
+            self.pass_times.push(*times);
+        }
+        self.last_finish = Instant::now();
+        self.schedule.absorb(&s.step, &finished, seconds);
+        self.free.push(finished.out);
+        let left = self.steps_left.front_mut().expect("a finished step belongs to a unit");
+        *left -= 1;
+        if *left > 0 {
+            return Ok(true);
+        }
+        self.steps_left.pop_front();
+        Ok(self.unit_done())
+    }
+
+    /// A unit's last step was absorbed: reports progress. False when the caller asked to stop.
+    fn unit_done(&mut self) -> bool {
+        self.passes += 1;
+        self.schedule.unit_done();
+        let snapshot = self.schedule.snapshot();
+        (self.on_pass)(&Progress {
+            passes: self.passes,
+            total: self.total,
+            film: snapshot.film,
+            components: snapshot.components,
+            elapsed: self.started.elapsed(),
+            discarded: self.discarded,
+            auto: snapshot.auto,
+            auto_sums: snapshot.auto_sums,
+        })
+    }
+}
+
+/// The sources and the schedule of a render with these options, continuing `resume`'s
+/// accumulated passes when given: every method but `auto` is one source whose passes are all
+/// averaged, `auto` the path tracer and `vbl` under its own schedule.
+pub(crate) fn setup<'a>(
+    ts: &'a TraceScene,
+    opts: &'a RenderOptions,
+    resume: Option<&Accumulators>,
+) -> Result<(Sources<'a>, Box<dyn Schedule + 'a>), String> {
+    let (width, height) = (opts.width, opts.height);
+    let path_tracer = |split| -> Box<dyn PassSource + 'a> {
+        Box::new(PathTracer {
+            ts,
+            settings: opts.path_tracer,
+            width,
+            height,
+            seed: opts.seed,
+            split,
+        })
+    };
+    let many_lights = |seed| -> Box<dyn PassSource + 'a> {
+        Box::new(ManyLights {
+            ts,
+            settings: opts.method.many_light_settings(ts, &opts.many_lights),
+            width,
+            height,
+            seed,
+            gpu: opts.gpu.as_deref(),
+        })
     };
     if opts.method == Method::Auto {
         let sums = match resume {
@@ -167,196 +266,33 @@ pub fn render_from(
             )),
             None => None,
         };
-        let discarded = resume.map_or(Discards::default(), |acc| acc.discarded);
-        return crate::auto::render(ts, opts, &many_light_settings, sums, discarded, on_pass);
+        let fixed = matches!(opts.budget, Budget::Passes(_));
+        let schedule = Auto::new(ts, width, height, opts.first_pass, sums, fixed)?;
+        // In the order of `auto::PT` and `auto::VBL`.
+        let sources = vec![path_tracer(true), many_lights(auto::vbl_seed(opts.seed))];
+        return Ok((sources, Box::new(schedule)));
     }
-    let (w, h) = (opts.width, opts.height);
-    let mut film = Film::new(w, h);
-    let mut buffer = vec![Rgb::ZERO; (w * h) as usize];
-    let n_components = if opts.components { Component::ALL.len() } else { 0 };
-    let mut components: Vec<Film> = (0..n_components).map(|_| Film::new(w, h)).collect();
-    if let Some(acc) = resume {
-        if (acc.film.width, acc.film.height) != (w, h) || acc.components.len() != n_components {
-            return Err("the checkpoint holds a different image size or set of layers".into());
-        }
-        if acc.end_pass() != opts.first_pass {
-            return Err(format!(
-                "the checkpoint ends at pass {}, the render would start at pass {}",
-                acc.end_pass(),
-                opts.first_pass
-            ));
-        }
-        film = acc.film.clone();
-        components = acc.components.clone();
-    }
-    let mut component_buffers = vec![vec![Rgb::ZERO; (w * h) as usize]; n_components];
-    let mut many_light_buffers: [Vec<Rgb>; Component::ALL.len()] = match opts.method {
-        Method::Pt => Default::default(),
-        _ => std::array::from_fn(|_| vec![Rgb::ZERO; (w * h) as usize]),
+    let source = match opts.method {
+        Method::Pt => path_tracer(opts.components),
+        _ => many_lights(opts.seed),
     };
-    let started = Instant::now();
-    let total = match opts.budget {
-        Budget::Passes(n) => Some(n),
-        Budget::Time(_) => None,
+    let n_components = if opts.components { N } else { 0 };
+    let films = match resume {
+        Some(acc) => {
+            if (acc.film.width, acc.film.height) != (width, height) || acc.components.len() != n_components {
+                return Err("the checkpoint holds a different image size or set of layers".into());
+            }
+            if acc.end_pass() != opts.first_pass {
+                return Err(format!(
+                    "the checkpoint ends at pass {}, the render would start at pass {}",
+                    acc.end_pass(),
+                    opts.first_pass
+                ));
+            }
+            Some((&acc.film, &acc.components[..]))
+        }
+        None => None,
     };
-    let mut passes = 0u64;
-    let mut pass_times = Vec::new();
-    let mut discarded_so_far = resume.map_or(Discards::default(), |acc| acc.discarded);
-    // Passes started; with the many-light methods one pass is in flight (its GPU gathers
-    // running) while the next one is traced and estimated on the CPU.
-    let mut started_passes = 0u64;
-    let mut in_flight: Option<PassInFlight> = None;
-    let gpu = opts.gpu.as_deref();
-    let mut last_finish = Instant::now();
-    // Wall time between the last few pass completions (for the time budget).
-    let mut recent_periods: std::collections::VecDeque<Duration> = Default::default();
-    let mut last_completion = started;
-    loop {
-        let start_another = match opts.budget {
-            Budget::Passes(n) => started_passes < n,
-            // Until a pass has finished there is no estimate of a pass's time: the first pass
-            // always runs, and no second one starts while it is in flight.
-            Budget::Time(_) if passes == 0 => started_passes == 0,
-            Budget::Time(limit) => {
-                // Start a pass only if it is expected to finish within the budget: passes
-                // finish one period apart, and a new one finishes after the one in flight.
-                // The period is the longest of the last few (the mean so far would carry the
-                // first pass's warm-up and stop a short budget early).
-                let period = recent_periods.iter().copied().max().unwrap_or_default();
-                let queued = 1 + in_flight.is_some() as u32;
-                opts.start.elapsed() + period * queued <= limit
-            }
-        };
-        let pass = (opts.first_pass + started_passes) as u32;
-        if opts.method == Method::Pt {
-            if !start_another {
-                break;
-            }
-            started_passes += 1;
-            path_trace_pass(
-                ts,
-                &opts.path_tracer,
-                w,
-                h,
-                opts.seed,
-                pass,
-                &mut buffer,
-                &mut component_buffers,
-            );
-        } else {
-            let next = if start_another {
-                started_passes += 1;
-                Some(
-                    many_lights::start_pass(ts, &many_light_settings, w, h, opts.seed, pass, gpu)
-                        .map_err(|e| format!("pass {pass} on the GPU: {e}"))?,
-                )
-            } else {
-                None
-            };
-            let Some(done) = std::mem::replace(&mut in_flight, next) else {
-                if in_flight.is_some() {
-                    continue; // nothing was in flight: nothing to finish yet
-                }
-                break;
-            };
-            let done_pass = done.pass;
-            let mut times = done
-                .finish(gpu, &mut many_light_buffers)
-                .map_err(|e| format!("pass {done_pass} on the GPU: {e}"))?;
-            times.wall = last_finish.elapsed();
-            last_finish = Instant::now();
-            discarded_so_far.add(&times.discarded);
-            pass_times.push(times);
-            for (i, px) in buffer.iter_mut().enumerate() {
-                *px = many_light_buffers.iter().map(|b| b[i]).sum();
-            }
-            if opts.components {
-                for (dst, src) in component_buffers.iter_mut().zip(&many_light_buffers) {
-                    dst.copy_from_slice(src);
-                }
-            }
-        }
-        film.add_pass(&buffer);
-        components
-            .par_iter_mut()
-            .zip(component_buffers.par_iter())
-            .for_each(|(f, b)| f.add_pass(b));
-        passes += 1;
-        if recent_periods.len() == 4 {
-            recent_periods.pop_front();
-        }
-        recent_periods.push_back(last_completion.elapsed());
-        last_completion = Instant::now();
-        let go_on = on_pass(&Progress {
-            passes,
-            total,
-            film: &film,
-            components: &components,
-            elapsed: started.elapsed(),
-            discarded: discarded_so_far,
-            auto: None,
-            auto_sums: None,
-        });
-        if !go_on {
-            // A pass still in flight is dropped unfinished.
-            break;
-        }
-    }
-    Ok(RenderResult {
-        film,
-        components,
-        passes,
-        elapsed: started.elapsed(),
-        pass_times,
-        auto: None,
-        discarded: discarded_so_far,
-    })
-}
-
-/// One sample per pixel, rows in parallel; with component buffers (one per `Component::ALL`
-/// entry, or none) also each pixel's sample split by component.
-pub fn path_trace_pass(
-    ts: &TraceScene,
-    settings: &PathTracerSettings,
-    w: u32,
-    h: u32,
-    seed: u32,
-    pass: u32,
-    out: &mut [Rgb],
-    components: &mut [Vec<Rgb>],
-) {
-    let split = !components.is_empty();
-    let rows = out.par_chunks_mut(w as usize).enumerate();
-    if split {
-        // Each row of the image with the same row of every component buffer, so that the
-        // rows' threads write their components in place.
-        let mut component_rows: Vec<Vec<&mut [Rgb]>> = (0..h).map(|_| Vec::new()).collect();
-        for buffer in components.iter_mut() {
-            for (row, chunk) in component_rows.iter_mut().zip(buffer.chunks_mut(w as usize)) {
-                row.push(chunk);
-            }
-        }
-        rows.zip(component_rows.into_par_iter())
-            .for_each(|((y, row), mut comps)| {
-                for c in comps.iter_mut() {
-                    c.fill(Rgb::ZERO);
-                }
-                for (x, px) in row.iter_mut().enumerate() {
-                    let mut s = Sampler::new(seed, pass, y as u32 * w + x as u32);
-                    let mut sum = Rgb::ZERO;
-                    pt::sample_pixel_split(ts, settings, x as u32, y as u32, w, h, &mut s, &mut |k, l| {
-                        comps[k as usize][x] += l;
-                        sum += l;
-                    });
-                    *px = sum;
-                }
-            });
-    } else {
-        rows.for_each(|(y, row)| {
-            for (x, px) in row.iter_mut().enumerate() {
-                let mut s = Sampler::new(seed, pass, y as u32 * w + x as u32);
-                *px = pt::sample_pixel(ts, settings, x as u32, y as u32, w, h, &mut s);
-            }
-        });
-    }
+    let schedule = EveryPass::new(width, height, opts.components, opts.first_pass, films);
+    Ok((vec![source], Box::new(schedule)))
 }

@@ -1,4 +1,5 @@
-//! The progressive radius schedule of the paper's eq. 11 (Jarosz et al. 2011's reduction
+//! The radii of the virtual beam and spherical lights and of the caustics: their defaults R0
+//! for a scene, and the progressive schedule of the paper's eq. 11 (Jarosz et al. 2011's reduction
 //! applied to the squared radius):
 //!
 //! R_i² = R_0² · (∏_{k=1}^{Mi−1} (k + α) / k) · 1 / (Mi),  i = 1, 2, … the pass number,
@@ -9,6 +10,35 @@
 //! is summed exactly for the first terms and continued with the asymptotic (Stirling) series
 //! of ln Γ(z+α) − ln Γ(z), which for z > 1000 is accurate to f64 rounding. Evaluating
 //! ln Γ at z ≈ 10¹² directly would instead lose about three digits to cancellation.
+
+/// The default initial VBL/VSL radius R0: 10 % of the diagonal of the scene's bounds. Eq. 11
+/// makes R0 the radius of a pass with a single light path; with M paths per pass the first
+/// pass already uses about R0 · M^((α−1)/2) (0.56 R0 for M = 64, α = 0.7), and 1000 passes
+/// later 0.14 R0. The paper leaves R0 to the user; a sphere must be wide compared with the
+/// distances at which a glossy surface or a forward-scattering medium would make a virtual
+/// light's contribution spike, which is what a tenth of the scene is meant to be (measured
+/// in `tests/vbl_progressive.rs`: 2.5 % left such spikes in a glossy-floored fog box).
+pub fn default_radius(scene: &beamlight_scene::Scene) -> f32 {
+    0.1 * diagonal(scene)
+}
+
+/// The default initial photon-mapping radius: 2.5 % of the scene's diagonal (caustics are
+/// sharp, and photons are density-estimated, not connected: no singularity to spread).
+pub fn default_photon_radius(scene: &beamlight_scene::Scene) -> f32 {
+    0.025 * diagonal(scene)
+}
+
+fn diagonal(scene: &beamlight_scene::Scene) -> f32 {
+    let (lo, hi) = scene.bounds();
+    let d = (hi - lo).length();
+    if d.is_finite() && d > 0.0 { d } else { 1.0 }
+}
+
+/// The squared radius of pass `pass` (0-based) for initial radius `r0`, `paths` light paths
+/// per pass and α, from eq. 11 in log space.
+pub fn paths_squared_radius(r0: f32, alpha: f32, paths: u32, pass: u32) -> f32 {
+    squared_radius(r0 as f64, alpha as f64, paths.max(1) as u64, pass as u64 + 1) as f32
+}
 
 /// Terms of S(n) summed one by one before the asymptotic series takes over.
 const DIRECT_TERMS: u64 = 1024;

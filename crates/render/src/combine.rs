@@ -1,0 +1,534 @@
+//! How `--method auto` combines its two estimators ([`crate::auto`] decides which runs when):
+//! both estimators' running sums per component ([`AutoSums`]), each one's error model
+//! ([`ComponentError`]: its variance, and the part of the two image means' difference their
+//! noise does not explain, credited by its sign), and the combination of the two with one
+//! weight per component, inversely proportional to the errors. The reasons for each choice
+//! are in [`crate::auto`]'s documentation.
+use crate::{Film, Image, components::SceneFeatures, film::mean_and_variance};
+use beamlight_scene::Rgb;
+use beamlight_trace::{TraceScene, components::Component};
+
+use crate::source::N;
+/// `vbl` passes before its estimate of a component gets any weight: the variance of two or
+/// three heavy-tailed passes says too little.
+pub const MIN_VBL_PASSES: u64 = 4;
+
+/// Where each component's estimate came from: what `--stats`, `--stats-json` and the EXR
+/// header report.
+#[derive(Clone, Debug, Default)]
+pub struct AutoReport {
+    /// Path-traced samples per pixel that estimated each component (the path tracer runs
+    /// restricted to the components it serves best, [`PathTracerSettings::components`]), and
+    /// the path tracer's seconds in all.
+    pub pt_spp: [u64; N],
+    pub pt_seconds: f64,
+    /// `vbl` passes that computed each component, in [`Component::ALL`] order.
+    pub vbl_passes: [u64; N],
+    /// Seconds of `vbl` passes in all, and per component its estimator's share (the rest of
+    /// a pass, tracing, is shared).
+    pub vbl_seconds: f64,
+    pub vbl_component_seconds: [f64; N],
+    /// `vbl`'s weight per component, one for the whole image (0: all `pt`).
+    pub vbl_weight: [f64; N],
+    /// Components the scene can produce.
+    pub needed: [bool; N],
+    /// Components only `vbl` can estimate (see the module documentation).
+    pub vbl_only: [bool; N],
+    /// The render's running sums, for its accumulators (set in the finished render's
+    /// report; during the render [`Progress::auto_sums`] lends them).
+    pub sums: Option<AutoSums>,
+}
+
+impl AutoReport {
+    /// The path tracer's seconds, then one line per component the scene can produce, e.g.
+    /// `Lsm: pt 512 spp, vbl 20 passes (1.2 s), vbl weight 0.38`.
+    pub fn lines(&self) -> Vec<String> {
+        let pt = format!("pt: {:.2} s in all", self.pt_seconds);
+        std::iter::once(pt)
+            .chain(
+                Component::ALL
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| self.needed[*k])
+                    .map(|(k, c)| {
+                        format!(
+                            "{}: pt {} spp{}, vbl {} passes ({:.2} s), vbl weight {:.2}",
+                            c.name(),
+                            self.pt_spp[k],
+                            if self.vbl_only[k] {
+                                " unused (vbl alone: the caustics, or light from a delta light through glass)"
+                            } else {
+                                ""
+                            },
+                            self.vbl_passes[k],
+                            self.vbl_component_seconds[k],
+                            self.vbl_weight[k]
+                        )
+                    }),
+            )
+            .collect()
+    }
+}
+
+/// Components `auto` takes from `vbl` alone in this scene (see the module documentation): the
+/// caustics, always; and with delta lights (punctual glTF lights) and delta surfaces (mirrors,
+/// glass), every component but `direct`, since light leaving the light through a delta surface
+/// reaches them all and the path tracer cannot follow it.
+pub fn vbl_only(ts: &TraceScene) -> [bool; N] {
+    let features = SceneFeatures::of(&ts.scene);
+    let blind = features.specular_surfaces && !ts.scene.lights.is_empty();
+    std::array::from_fn(|k| match Component::ALL[k] {
+        Component::CausticSurface | Component::CausticVolume => true,
+        Component::Direct => false,
+        _ => blind,
+    })
+}
+
+/// The two estimators' running sums, per component, and their passes' image means: what a
+/// checkpoint or a pass range's accumulators hold of an `auto` render (`crate::accum`), and
+/// all the combination needs.
+#[derive(Clone, Debug)]
+pub struct AutoSums {
+    pub pt: Vec<Film>,
+    pub vbl: Vec<Film>,
+    pub pt_means: [PassMeans; N],
+    pub vbl_means: [PassMeans; N],
+    /// Components the scene can produce, and those only `vbl` can estimate ([`vbl_only`]).
+    pub needed: [bool; N],
+    pub vbl_only: [bool; N],
+    /// The next `pt` sample's and `vbl` pass's index in their global sequences (a pass
+    /// range's round r runs `vbl` pass r and `pt` samples from r · [`PT_SPP_PER_ROUND`]).
+    pub pt_next: u64,
+    pub vbl_next: u64,
+}
+
+impl AutoSums {
+    /// Nothing accumulated yet, for a render whose first round is `first_round`.
+    pub fn new(ts: &TraceScene, w: u32, h: u32, pt_next: u64, vbl_next: u64) -> Self {
+        let needed_list = SceneFeatures::of(&ts.scene).needed();
+        Self {
+            pt: (0..N).map(|_| Film::new(w, h)).collect(),
+            vbl: (0..N).map(|_| Film::new(w, h)).collect(),
+            pt_means: Default::default(),
+            vbl_means: Default::default(),
+            needed: std::array::from_fn(|k| needed_list.contains(&Component::ALL[k])),
+            vbl_only: vbl_only(ts),
+            pt_next,
+            vbl_next,
+        }
+    }
+
+    /// The components the path tracer estimates: those the scene has, but not those only
+    /// `vbl` can reach.
+    pub fn pt_serves(&self) -> [bool; N] {
+        std::array::from_fn(|k| self.needed[k] && !self.vbl_only[k])
+    }
+
+    /// Adds another render's sums (other passes of the same render, as [`Film::add_film`]).
+    pub fn add(&mut self, other: &AutoSums) {
+        for (a, b) in self
+            .pt
+            .iter_mut()
+            .zip(&other.pt)
+            .chain(self.vbl.iter_mut().zip(&other.vbl))
+        {
+            a.add_film(b);
+        }
+        for (a, b) in self.pt_means.iter_mut().zip(&other.pt_means) {
+            a.add(b);
+        }
+        for (a, b) in self.vbl_means.iter_mut().zip(&other.vbl_means) {
+            a.add(b);
+        }
+        self.pt_next = self.pt_next.max(other.pt_next);
+        self.vbl_next = self.vbl_next.max(other.vbl_next);
+    }
+
+    /// The combined image (beauty, then each component in [`Component::ALL`] order) as films
+    /// whose means are the combination and whose variances its variance, as if from `passes`
+    /// passes; and `vbl`'s weight per component.
+    pub fn combined(&self, passes: u64) -> (Film, Vec<Film>, [f64; N]) {
+        let (w, h) = (self.pt[0].width, self.pt[0].height);
+        let mut c = Combined::new(w, h);
+        let mut report = AutoReport::default();
+        c.weigh(self, &mut report);
+        c.combine(self, &report, passes);
+        (c.film, c.components, report.vbl_weight)
+    }
+}
+
+/// Mean over pixels and channels of one pass, per pass: how much a pass's whole image moves,
+/// which the pixels' own variances understate when their errors correlate (a pass's virtual
+/// lights reach many pixels at once).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassMeans {
+    pub n: f64,
+    pub sum: f64,
+    pub sum_sq: f64,
+}
+
+impl PassMeans {
+    /// Adds another set of passes' means.
+    pub(crate) fn add(&mut self, other: &PassMeans) {
+        self.n += other.n;
+        self.sum += other.sum;
+        self.sum_sq += other.sum_sq;
+    }
+
+    pub(crate) fn push(&mut self, pass: &[Rgb]) {
+        let m = pass.iter().map(|v| (v[0] + v[1] + v[2]) as f64).sum::<f64>() / (3 * pass.len().max(1)) as f64;
+        self.n += 1.0;
+        self.sum += m;
+        self.sum_sq += m * m;
+    }
+
+    /// Variance of the mean over the passes so far (0 with fewer than two).
+    fn variance_of_mean(&self) -> f64 {
+        mean_and_variance(self.n, self.sum, self.sum_sq).1
+    }
+}
+
+/// One component's error model: each estimator's variance, summed over pixels and channels
+/// with each entry's relative-error weight (1/(value² + 0.01), as `compare`'s relMSE), and the
+/// squared difference of the two image means that their noise does not explain, likewise
+/// weighted, credited by its sign (see [`ComponentError::of`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct ComponentError {
+    pub(crate) pt: f64,
+    pub(crate) vbl: f64,
+    /// `vbl` darker than `pt`: its blur's loss of light.
+    pub(crate) bias2: f64,
+    /// `vbl` brighter than `pt`: light the path tracer has not found yet.
+    pub(crate) pt_tail2: f64,
+}
+
+impl ComponentError {
+    /// `pt` from `n_pt` samples and `vbl` from `pass_means`-tracked passes, over an image whose
+    /// entries have relative-error weights `relative`.
+    pub(crate) fn of(pt: &Film, vbl: &Film, vbl_means: &PassMeans, pt_means: &PassMeans, relative: &[Rgb]) -> Self {
+        let mut e = ComponentError::default();
+        let (mut diff, mut level, mut level_weighted) = (0f64, 0f64, 0f64);
+        for (i, r) in relative.iter().enumerate() {
+            for c in 0..3 {
+                let r = r[c] as f64;
+                let (m, v) = pt.entry(i, c);
+                let (mv, vv) = vbl.entry(i, c);
+                e.pt += v * r;
+                e.vbl += vv * r;
+                diff += mv - m;
+                level += m;
+                level_weighted += m * m * r;
+            }
+        }
+        // Relative difference of the image means, β = Δ/level, minus what the noise of the two
+        // image means explains (from their pass-to-pass spread, which includes the pixels'
+        // correlation); as a squared error it weighs like the component itself. Its sign says
+        // whose error it is. `vbl` darker: its blur loses light where it meets surfaces
+        // (issue 19), and it does not gain any, so it is `vbl`'s bias. `vbl` brighter: the path
+        // tracer, unbiased but heavy-tailed where light reaches the component only through
+        // glass or a mirror (found only by hitting an emitter through it), has not yet drawn the
+        // rare bright paths, and its sample variance cannot show them; so it is `pt`'s error.
+        let entries = (3 * relative.len()).max(1) as f64;
+        if level > 0.0 && vbl.samples >= 2 {
+            let beta = diff / level;
+            let noise =
+                (vbl_means.variance_of_mean() + pt_means.variance_of_mean()) * entries * entries / (level * level);
+            let excess = (beta * beta - noise).max(0.0) * level_weighted;
+            if diff < 0.0 {
+                e.bias2 = excess;
+            } else {
+                e.pt_tail2 = excess;
+            }
+        }
+        e
+    }
+
+    /// `vbl`'s weight: inverse errors; 0 when `vbl` has no estimate yet, 1 when `pt` has none.
+    pub(crate) fn vbl_weight(&self, has_vbl: bool, has_pt: bool) -> f64 {
+        match (has_vbl, has_pt) {
+            (false, _) => 0.0,
+            (true, false) => 1.0,
+            (true, true) => {
+                // A zero or overflowed total (a black component, sums beyond f64) says
+                // nothing: pt's estimate, unless only pt's error is infinite.
+                let vbl = self.vbl + self.bias2;
+                let pt = self.pt + self.pt_tail2;
+                let w = pt / (pt + vbl);
+                if w.is_finite() {
+                    w.clamp(0.0, 1.0)
+                } else if pt.is_infinite() && vbl.is_finite() {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+
+    /// The combined error with `n_pt` samples of `pt` and `n_vbl` passes of `vbl` (from the
+    /// per-sample variances now), and its derivatives by each count.
+    /// `pt`'s missing tail is modelled as variance: it shrinks as the samples that find the
+    /// light accumulate.
+    pub(crate) fn model(&self, n_pt: f64, n_vbl: f64, has_vbl: bool) -> (f64, f64, f64) {
+        let s_pt = (self.pt + self.pt_tail2) * n_pt;
+        let p = if s_pt > 0.0 { n_pt / s_pt } else { f64::INFINITY };
+        if !has_vbl {
+            return if s_pt > 0.0 {
+                (1.0 / p, -1.0 / (p * p * s_pt), 0.0)
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+        }
+        let s_vbl = self.vbl * n_vbl;
+        let e_vbl = s_vbl / n_vbl + self.bias2;
+        let q = if e_vbl > 0.0 { 1.0 / e_vbl } else { f64::INFINITY };
+        if !(p + q).is_finite() {
+            return (0.0, 0.0, 0.0);
+        }
+        let mse = 1.0 / (p + q);
+        let d_pt = if s_pt > 0.0 { -mse * mse / s_pt } else { 0.0 };
+        let d_vbl = -mse * mse * q * q * s_vbl / (n_vbl * n_vbl);
+        (mse, d_pt, d_vbl)
+    }
+}
+
+/// The combined estimate of one component with `vbl`'s weight `a`: its image and the variance
+/// of each pixel's estimate.
+fn combine(pt: &Film, vbl: &Film, a: f64) -> (Image, Image) {
+    let (mp, vp) = (pt.image(), pt.variance_of_mean());
+    let (mv, vv) = (vbl.image(), vbl.variance_of_mean());
+    let a = a as f32;
+    let mut image = Image::new(pt.width, pt.height);
+    let mut variance = Image::new(pt.width, pt.height);
+    for i in 0..image.pixels.len() {
+        image.pixels[i] = mp.pixels[i] * (1.0 - a) + mv.pixels[i] * a;
+        variance.pixels[i] = vp.pixels[i] * (1.0 - a) * (1.0 - a) + vv.pixels[i] * a * a;
+    }
+    (image, variance)
+}
+
+/// The combined estimate, as films whose means are the combination and whose variances are
+/// its estimated variance (so that every consumer of a film reads it as usual), and the
+/// per-component errors the schedule works from.
+pub(crate) struct Combined {
+    pub(crate) film: Film,
+    pub(crate) components: Vec<Film>,
+    pub(crate) errors: [ComponentError; N],
+}
+
+impl Combined {
+    pub(crate) fn new(w: u32, h: u32) -> Self {
+        Self {
+            film: Film::new(w, h),
+            components: (0..N).map(|_| Film::new(w, h)).collect(),
+            errors: Default::default(),
+        }
+    }
+
+    /// The error model and `vbl`'s weight of every component, from the estimates now.
+    pub(crate) fn weigh(&mut self, est: &AutoSums, report: &mut AutoReport) {
+        let (needed, vbl_only) = (&est.needed, &est.vbl_only);
+        // Each pixel's relative-error weight 1/(b² + 0.01), with b the beauty from the smaller
+        // of the two estimates of each component where both have one. Not from the path
+        // tracer's alone: where it is heavy-tailed (light through glass), a pixel that drew a
+        // rare bright path would divide its own variance by its own square and hide the very
+        // noise that makes it a firefly (measured: `pt`'s weight in a glass-ball fog box
+        // stayed at half where its error was 20× `vbl`'s). The smaller value damps the outliers
+        // of either estimator alike (`vbl`'s early passes have bright virtual lights), and a
+        // common scale of the weights does not change how the two compare.
+        let pixels = self.film.width as usize * self.film.height as usize;
+        let relative: Vec<Rgb> = (0..pixels)
+            .map(|i| {
+                let b = |c: usize| {
+                    (0..N)
+                        .map(|k| {
+                            let pt = (est.pt[k].samples > 0 && !vbl_only[k]).then(|| est.pt[k].entry(i, c).0);
+                            let vbl = (est.vbl[k].samples > 0).then(|| est.vbl[k].entry(i, c).0);
+                            match (pt, vbl) {
+                                (Some(p), Some(v)) => p.min(v),
+                                (p, v) => p.or(v).unwrap_or(0.0),
+                            }
+                        })
+                        .sum::<f64>() as f32
+                };
+                let b = Rgb::new(b(0), b(1), b(2));
+                Rgb::ONE / (b * b + Rgb::splat(0.01))
+            })
+            .collect();
+        for k in 0..N {
+            let (pt, vbl) = (&est.pt[k], &est.vbl[k]);
+            if !needed[k] {
+                self.errors[k] = ComponentError::default();
+                continue;
+            }
+            self.errors[k] = ComponentError::of(pt, vbl, &est.vbl_means[k], &est.pt_means[k], &relative);
+            let has_vbl = vbl.samples >= MIN_VBL_PASSES || (vbl_only[k] && vbl.samples > 0);
+            let has_pt = pt.samples >= 2 && !vbl_only[k];
+            report.vbl_weight[k] = self.errors[k].vbl_weight(has_vbl, has_pt);
+        }
+    }
+
+    /// The combined films with the weights of the last [`Combined::weigh`], as if from
+    /// `samples` passes.
+    pub(crate) fn combine(&mut self, est: &AutoSums, report: &AutoReport, samples: u64) {
+        let (w, h) = (self.film.width, self.film.height);
+        let needed = &est.needed;
+        let mut total = Image::new(w, h);
+        let mut total_var = Image::new(w, h);
+        for k in 0..N {
+            if !needed[k] {
+                self.components[k] = Film::new(w, h);
+                continue;
+            }
+            let (image, variance) = combine(&est.pt[k], &est.vbl[k], report.vbl_weight[k]);
+            for i in 0..image.pixels.len() {
+                total.pixels[i] += image.pixels[i];
+                total_var.pixels[i] += variance.pixels[i];
+            }
+            self.components[k] = Film::from_estimate(&image, &variance, samples);
+        }
+        self.film = Film::from_estimate(&total, &total_var, samples);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A film of `n` passes whose pixel values are `mean ± spread` alternately (so its
+    /// per-pixel variance of the mean is spread²·n/(n−1)/n).
+    fn film(w: u32, h: u32, n: u64, mean: f32, spread: f32) -> Film {
+        let mut f = Film::new(w, h);
+        for i in 0..n {
+            let v = if i % 2 == 0 { mean + spread } else { mean - spread };
+            f.add_pass(&vec![Rgb::splat(v); (w * h) as usize]);
+        }
+        f
+    }
+
+    /// The error model of two films with their pass means tracked.
+    fn errors(pt: &Film, vbl: &Film, pt_means: &PassMeans, vbl_means: &PassMeans) -> ComponentError {
+        ComponentError::of(
+            pt,
+            vbl,
+            vbl_means,
+            pt_means,
+            &vec![Rgb::ONE; (pt.width * pt.height) as usize],
+        )
+    }
+
+    fn means(n: u64, mean: f64, spread: f64) -> PassMeans {
+        let mut m = PassMeans::default();
+        for i in 0..n {
+            let v = if i % 2 == 0 { mean + spread } else { mean - spread };
+            m.push(&[Rgb::splat(v as f32)]);
+        }
+        m
+    }
+
+    /// Inverse-variance weights: the less noisy estimator dominates in proportion, and the
+    /// combination's variance is the weighted one.
+    #[test]
+    fn combination_weighs_by_inverse_variance() {
+        let (w, h) = (16, 16);
+        // Same mean, vbl's variance a quarter of pt's: vbl's weight 4/5.
+        let pt = film(w, h, 64, 1.0, 0.4);
+        let vbl = film(w, h, 64, 1.0, 0.2);
+        let e = errors(&pt, &vbl, &means(64, 1.0, 0.4), &means(64, 1.0, 0.2));
+        assert_eq!(e.bias2, 0.0);
+        let weight = e.vbl_weight(true, true);
+        assert!((weight - 0.8).abs() < 1e-6, "vbl weight {weight}");
+        let (image, variance) = combine(&pt, &vbl, weight);
+        assert!((image.pixels[17][0] - 1.0).abs() < 1e-6);
+        let vp = pt.variance_of_mean().pixels[0][0];
+        let expected = vp * 0.2 * 0.2 + vp / 4.0 * 0.8 * 0.8;
+        assert!((variance.pixels[0][0] - expected).abs() < 1e-6 * expected);
+        // Without a vbl estimate (or before enough passes), pt alone; without pt, vbl alone.
+        assert_eq!(e.vbl_weight(false, true), 0.0);
+        assert_eq!(e.vbl_weight(true, false), 1.0);
+        // A combined film reads back as the estimate it was made from.
+        let f = Film::from_estimate(&image, &variance, 64);
+        assert!((f.image().pixels[3][1] - image.pixels[3][1]).abs() < 1e-6);
+        let v = f.variance_of_mean().pixels[3][1];
+        assert!((v - variance.pixels[3][1]).abs() < 1e-4 * variance.pixels[3][1], "{v}");
+    }
+
+    /// A biased vbl (its image mean off by far more than both estimates' noise) loses its
+    /// weight: the bias term, not the variance, decides; an unbiased one keeps it.
+    #[test]
+    fn a_biased_estimate_loses_its_weight() {
+        let (w, h) = (16, 16);
+        let pt = film(w, h, 64, 1.0, 0.4);
+        let vbl = film(w, h, 64, 0.8, 0.01);
+        let e = errors(&pt, &vbl, &means(64, 1.0, 0.4 / 16.0), &means(64, 0.8, 0.01));
+        // Its variance alone would give it 99.9 % of the weight; pt's variance of the mean
+        // (0.0025 per entry) against the squared bias (0.04) leaves it 6 %.
+        let weight = e.vbl_weight(true, true);
+        assert!(weight < 0.1, "a 20 % bias kept vbl's weight at {weight}");
+        let (image, _) = combine(&pt, &vbl, weight);
+        assert!((image.pixels[0][0] - 1.0).abs() < 0.02, "{}", image.pixels[0][0]);
+        // The same difference within the image means' noise (a pass-to-pass spread of the
+        // whole image of 2.0, as when a pass's few lights reach every pixel) is not bias.
+        let e = errors(&pt, &vbl, &means(64, 1.0, 2.0), &means(64, 0.8, 2.0));
+        assert_eq!(e.bias2, 0.0);
+        // Unbiased and far more precise: it takes nearly all of the weight.
+        let vbl = film(w, h, 64, 1.0, 0.01);
+        let e = errors(&pt, &vbl, &means(64, 1.0, 0.4 / 16.0), &means(64, 1.0, 0.01));
+        assert!(e.vbl_weight(true, true) > 0.99);
+    }
+
+    /// A `vbl` brighter than `pt` by far more than their noise is the path tracer missing
+    /// light (heavy tails behind glass), not `vbl`'s bias: `pt`'s error grows and `vbl` keeps
+    /// (here gains) its weight; the same difference the other way is `vbl`'s bias.
+    #[test]
+    fn a_brighter_vbl_is_light_the_path_tracer_missed() {
+        let (w, h) = (16, 16);
+        // pt looks precise (spread 0.05) but is 20 % dark; vbl is noisier (0.2).
+        let pt = film(w, h, 64, 0.8, 0.05);
+        let vbl = film(w, h, 64, 1.0, 0.2);
+        let e = errors(&pt, &vbl, &means(64, 0.8, 0.05 / 16.0), &means(64, 1.0, 0.2 / 16.0));
+        assert_eq!(e.bias2, 0.0);
+        assert!(e.pt_tail2 > 0.0, "{e:?}");
+        // By variances alone vbl would get 1/17 of the weight; the missing light gives it most.
+        let weight = e.vbl_weight(true, true);
+        assert!(weight > 0.9, "vbl weight {weight}");
+        // Mirrored: vbl 20 % darker than a noisier pt is vbl's bias.
+        let e = errors(&vbl, &pt, &means(64, 1.0, 0.2 / 16.0), &means(64, 0.8, 0.05 / 16.0));
+        assert_eq!(e.pt_tail2, 0.0);
+        assert!(e.bias2 > 0.0 && e.vbl_weight(true, true) < 0.1, "{e:?}");
+    }
+
+    /// The error model: with `vbl` absent it is pt's variance of the mean, falling as 1/n;
+    /// with both, the harmonic combination, and each count's derivative matches a difference.
+    #[test]
+    fn error_model_and_its_derivatives() {
+        let e = ComponentError {
+            pt: 0.5,
+            vbl: 0.25,
+            bias2: 0.01,
+            pt_tail2: 0.0,
+        };
+        let (mse, d_pt, _) = e.model(100.0, 10.0, false);
+        assert!((mse - 0.5).abs() < 1e-12);
+        assert!((d_pt + 0.5 / 100.0).abs() < 1e-12, "{d_pt}");
+        let (mse, d_pt, d_vbl) = e.model(100.0, 10.0, true);
+        assert!((mse - 1.0 / (1.0 / 0.5 + 1.0 / 0.26)).abs() < 1e-12);
+        let h = 1e-3;
+        // Moving n while the per-sample variance stays put: the model's variance scales as
+        // n_then / n.
+        let scaled = |n_pt: f64, n_vbl: f64| {
+            ComponentError {
+                pt: 0.5 * 100.0 / n_pt,
+                vbl: 0.25 * 10.0 / n_vbl,
+                bias2: 0.01,
+                pt_tail2: 0.0,
+            }
+            .model(n_pt, n_vbl, true)
+            .0
+        };
+        let fd_pt2 = (scaled(100.0 + h, 10.0) - scaled(100.0 - h, 10.0)) / (2.0 * h);
+        let fd_vbl = (scaled(100.0, 10.0 + h) - scaled(100.0, 10.0 - h)) / (2.0 * h);
+        assert!((d_pt - fd_pt2).abs() < 1e-6 * fd_pt2.abs(), "{d_pt} vs {fd_pt2}");
+        assert!((d_vbl - fd_vbl).abs() < 1e-6 * fd_vbl.abs(), "{d_vbl} vs {fd_vbl}");
+    }
+}
