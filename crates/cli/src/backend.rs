@@ -9,7 +9,6 @@ use std::{path::PathBuf, sync::Arc};
 /// Mesa's Vulkan drivers print "error: XDG_RUNTIME_DIR is invalid or not set" on every device
 /// open without that variable (containers, CI), which reads like one of ours: give the process
 /// a private runtime directory when it has none (returned, to be removed at exit).
-
 pub(crate) fn quiet_vulkan_loader() -> Option<PathBuf> {
     if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
         return None;
