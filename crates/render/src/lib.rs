@@ -14,6 +14,7 @@ pub mod options;
 pub mod output;
 pub mod progressive;
 pub mod radius;
+mod record_gathers;
 pub mod schedule;
 pub mod sheet;
 pub mod source;

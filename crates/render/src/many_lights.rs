@@ -7,7 +7,10 @@
 //! Caustics come from the same light paths: progressive photon mapping over the caustic
 //! photons and progressive photon beams over the beams that leave specular bounces, with the
 //! pass's radius from the schedule of eq. 11 ([`crate::radius`]).
-use crate::radius::paths_squared_radius;
+use crate::{
+    radius::paths_squared_radius,
+    record_gathers::{CausticLookup, Estimators, PassGathers},
+};
 use beamlight_gpu::{
     GpuBackend, GpuError,
     gather::{GatherInputs, GatherKernel, KERNELS, PendingGathers},
@@ -17,13 +20,12 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, GatherSet, MediaSegment, ShadingPoint, trace_camera_paths},
     caustics::{BeamMap, PhotonMap},
-    components::{Component, gathers_in_medium},
+    components::Component,
     direct,
     light_paths::{Keep, LightTracerSettings, trace_light_paths},
     light_tree::{LightTree, Receiver},
     streams::{self, GatherKind},
-    vbl::{self, VblSettings},
-    vpl, vrl,
+    vbl::VblSettings,
 };
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -178,7 +180,6 @@ pub fn default_clamp(scene: &beamlight_scene::Scene) -> f32 {
 pub fn pass_squared_radius(r0: f32, settings: &ManyLightSettings, pass: u32) -> f32 {
     paths_squared_radius(r0, settings.alpha, settings.light_paths_per_pass, pass)
 }
-
 
 const N: usize = Component::ALL.len();
 
@@ -502,134 +503,45 @@ pub fn start_pass(
     // Caustics keep one stream per record; each (record, virtual light) pair has its own
     // ([`streams`]), which the GPU kernels draw from too.
     let stream = |kind: u32, i: usize| Sampler::new(seed ^ 0x7f4a_7c15, pass, (i as u32).wrapping_mul(2) + kind);
-    let on_cpu = pending.is_none();
     let computed = settings.components;
-
-    // Each gather point against every virtual light: the sum over a light set divided by its
-    // path count M is the per-pass estimate.
-    let (clamp, vbl) = (settings.clamp, &settings.vbl);
-    // `inject_nan`: the gather over `lights` poisons its first record (as the GPU's does).
-    let poison = |i: usize, lights: usize| settings.inject_nan && i == 0 && lights > 0;
-    let at_points: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = points
-        .par_iter()
-        .enumerate()
-        .map(|(i, sp)| {
-            let mut c = [Rgb::ZERO; N];
-            let mut t = [0f64; N];
-            let mut dp = [0u64; N];
-            let credit = point_credits[i];
-            let want = |component: Component| on(credited(component, credit));
-            if let Some(k) = credit.map(|k| k as usize).filter(|&k| computed[k]) {
-                // A walk point's direct light; the camera's shading points' is part of
-                // `direct_light` below.
-                let mut sd = direct_stream(seed, pass, 0, i);
-                c[k] += admit(
-                    timed(&mut t[k], || direct::direct_at_surface(ts, sp, &mut sd)),
-                    &mut dp[k],
-                );
-            }
-            if on_cpu {
-                let rx = selection.as_ref().map(|sel| (sel, Receiver::at_point(&ts.scene, sp)));
-                let (lss, lsm) = (Component::Lss as usize, Component::Lsm as usize);
-                if want(Component::Lss) {
-                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vsls, rx));
-                    let kind = (GatherKind::VplToSurface, i, pair_seed, pass);
-                    let v = gather_lights(drawn, (&mut t[lss], &mut dp[lss]), &lights.vpls, kind, |v, s| {
-                        if beams_on {
-                            vbl::vsl_to_surface(ts, sp, v, r2, vbl, s)
-                        } else {
-                            vpl::vpl_to_surface(ts, sp, v, clamp, s)
-                        }
-                    });
-                    let k = credited(Component::Lss, credit) as usize;
-                    c[k] += admit(injected(v / m, poison(i, lights.vpls.len())), &mut dp[k]);
-                }
-                if want(Component::Lsm) {
-                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vbls, rx));
-                    let kind = (GatherKind::VrlToSurface, i, pair_seed, pass);
-                    let v = gather_lights(drawn, (&mut t[lsm], &mut dp[lsm]), &lights.vrls, kind, |v, s| {
-                        if beams_on {
-                            vbl::vbl_to_surface(ts, sp, v, r2, vbl, s)
-                        } else {
-                            vrl::vrl_to_surface(ts, sp, v, clamp, s)
-                        }
-                    });
-                    let k = credited(Component::Lsm, credit) as usize;
-                    c[k] += admit(injected(v / m, poison(i, lights.vrls.len())), &mut dp[k]);
-                }
-            }
-            if !photons.is_empty() {
-                let k = credited(Component::CausticSurface, credit) as usize;
-                let v = timed(&mut t[k], || photons.radiance(ts, sp) / m_photons);
-                c[k] += admit(injected(v, poison(i, 1)), &mut dp[k]);
-            }
-            (sp.pixel, c, t, dp)
-        })
-        .collect();
-    let along_segments: Vec<(u32, [Rgb; N], [f64; N], [u64; N])> = segments
-        .par_iter()
-        .enumerate()
-        .map(|(i, seg)| {
-            let mut s = stream(1, i);
-            let mut c = [Rgb::ZERO; N];
-            let mut t = [0f64; N];
-            let mut dp = [0u64; N];
-            let credit = segment_credits[i];
-            let want = |component: Component| on(credited(component, credit));
-            if let Some(k) = credit.map(|k| k as usize).filter(|&k| computed[k]) {
-                // A walk segment's direct light (its second vertex on an emitter, so `Lmm`);
-                // the camera segments' is part of `direct_light` below.
-                let mut sd = direct_stream(seed, pass, 1, i);
-                c[k] += admit(
-                    timed(&mut t[k], || direct::direct_in_medium(ts, seg, &mut sd)),
-                    &mut dp[k],
-                );
-            }
-            if on_cpu && gathers_in_medium(ts.scene.media[seg.medium as usize].g) {
-                let rx = selection
-                    .as_ref()
-                    .map(|sel| (sel, Receiver::along_segment(&ts.scene, seg)));
-                let (lms, lmm) = (Component::Lms as usize, Component::Lmm as usize);
-                if want(Component::Lms) {
-                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vsls, rx));
-                    let kind = (GatherKind::VplToMedia, i, pair_seed, pass);
-                    let v = gather_lights(drawn, (&mut t[lms], &mut dp[lms]), &lights.vpls, kind, |v, s| {
-                        if beams_on {
-                            vbl::vsl_to_media(ts, seg, v, r2, vbl, s)
-                        } else {
-                            vpl::vpl_to_media(ts, seg, v, clamp, s)
-                        }
-                    });
-                    let k = credited(Component::Lms, credit) as usize;
-                    c[k] += admit(injected(v / m, poison(i, lights.vpls.len())), &mut dp[k]);
-                }
-                if want(Component::Lmm) {
-                    let drawn = rx.as_ref().map(|(sel, rx)| (*sel, &sel.vbls, rx));
-                    let kind = (GatherKind::VrlToMedia, i, pair_seed, pass);
-                    let v = gather_lights(drawn, (&mut t[lmm], &mut dp[lmm]), &lights.vrls, kind, |v, s| {
-                        if beams_on {
-                            vbl::vbl_to_media(ts, seg, v, r2, vbl, s)
-                        } else {
-                            vrl::vrl_to_media(ts, seg, v, clamp, s)
-                        }
-                    });
-                    let k = credited(Component::Lmm, credit) as usize;
-                    c[k] += admit(injected(v / m, poison(i, lights.vrls.len())), &mut dp[k]);
-                }
-            }
-            if !beams.is_empty() {
-                let k = credited(Component::CausticVolume, credit) as usize;
-                let v = timed(&mut t[k], || beams.radiance(ts, seg, &mut s) / m_beams);
-                c[k] += admit(injected(v, poison(i, 1)), &mut dp[k]);
-            }
-            (seg.pixel, c, t, dp)
-        })
-        .collect();
-    for (pixel, c, t, dp) in at_points.into_iter().chain(along_segments) {
-        for (k, v) in c.into_iter().enumerate() {
-            out[k][pixel as usize] += v;
-            times.component_cpu[k] += t[k];
-            times.discarded.estimates[k] += dp[k];
+    // Each gather record against every virtual light (or those it draws): the sum over a
+    // light set divided by its path count M is the per-pass estimate.
+    let gathers = PassGathers {
+        ts,
+        seed,
+        pass,
+        pair_seed,
+        computed,
+        virtual_lights: pending.is_none(),
+        selection: selection.as_ref(),
+        vpls: &lights.vpls,
+        vrls: &lights.vrls,
+        m,
+        estimators: Estimators {
+            beams: beams_on,
+            r2,
+            vbl: &settings.vbl,
+            clamp: settings.clamp,
+        },
+        inject_nan: settings.inject_nan,
+    };
+    let photon_lookup = |_: usize, sp: &ShadingPoint| photons.radiance(ts, sp) / m_photons;
+    let beam_lookup = |i: usize, seg: &MediaSegment| beams.radiance(ts, seg, &mut stream(1, i)) / m_beams;
+    let at_points = gathers.estimate(
+        &points,
+        &point_credits,
+        (!photons.is_empty()).then_some(&photon_lookup as CausticLookup<ShadingPoint>),
+    );
+    let along_segments = gathers.estimate(
+        &segments,
+        &segment_credits,
+        (!beams.is_empty()).then_some(&beam_lookup as CausticLookup<MediaSegment>),
+    );
+    for e in at_points.into_iter().chain(along_segments) {
+        for (k, v) in e.value.into_iter().enumerate() {
+            out[k][e.pixel as usize] += v;
+            times.component_cpu[k] += e.seconds[k];
+            times.discarded.estimates[k] += e.discarded[k];
         }
     }
     times.cpu_estimates = clock.elapsed();
@@ -650,13 +562,13 @@ pub fn start_pass(
 /// The component a record's estimate of `component` belongs to: itself at the camera's
 /// records; the walk's credit at a walk record, whose (v1, v2) classify its every path
 /// ([`beamlight_trace::components`]).
-fn credited(component: Component, credit: Option<Component>) -> Component {
+pub(crate) fn credited(component: Component, credit: Option<Component>) -> Component {
     credit.unwrap_or(component)
 }
 
 /// Direct light's random stream for record `i` of `kind` (0: shading points, 1: media
 /// segments, walk segments numbered after the camera's) of a camera sample with `seed`.
-fn direct_stream(seed: u32, pass: u32, kind: u32, i: usize) -> Sampler {
+pub(crate) fn direct_stream(seed: u32, pass: u32, kind: u32, i: usize) -> Sampler {
     Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind)
 }
 
@@ -694,12 +606,12 @@ fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, injec
 }
 
 /// Fault injection ([`ManyLightSettings::inject_nan`]): `v`, or NaN when `poison`.
-fn injected(v: Rgb, poison: bool) -> Rgb {
+pub(crate) fn injected(v: Rgb, poison: bool) -> Rgb {
     if poison { Rgb::splat(f32::NAN) } else { v }
 }
 
 /// One pass's light trees and the lights each record draws from each.
-struct Selection {
+pub(crate) struct Selection {
     k: u32,
     /// Draws per camera media segment from the VBL tree (`Lmm`,
     /// [`ManyLightSettings::media_light_samples`]).
@@ -708,8 +620,8 @@ struct Selection {
     r: f32,
     pair_seed: u32,
     pass: u32,
-    vsls: LightTree,
-    vbls: LightTree,
+    pub(crate) vsls: LightTree,
+    pub(crate) vbls: LightTree,
 }
 
 impl Selection {
@@ -754,45 +666,42 @@ impl Selection {
     }
 }
 
-/// One record's gather over a light set, before the division by the path count M: with light
-/// selection, the lights `drawn` from its tree for the record's receiver; without, every
-/// light, each with its pair's stream. `f(light, stream)` is a light's contribution; the
+/// One record's gather over a set of `lights` virtual lights, before the division by the path
+/// count M: with light selection, the lights `drawn` from its tree for the record's receiver;
+/// without, every light, each with its pair's stream. `f(index, stream)` is light `index`'s
+/// contribution; the
 /// gather's CPU time and discards go to `(seconds, discarded)`; `(kind, record, pair_seed,
 /// pass)` name the record's streams ([`streams`]).
-fn gather_lights<T>(
+pub(crate) fn gather_lights(
     drawn: Option<(&Selection, &LightTree, &Receiver)>,
     (seconds, discarded): (&mut f64, &mut u64),
-    lights: &[T],
+    lights: usize,
     (kind, record, pair_seed, pass): (GatherKind, usize, u32, u32),
-    f: impl Fn(&T, &mut Sampler) -> Rgb,
+    f: &dyn Fn(usize, &mut Sampler) -> Rgb,
 ) -> Rgb {
     match drawn {
-        Some((sel, tree, rx)) => {
-            sel.timed_estimate(seconds, discarded, tree, rx, kind, record, |j, s| f(&lights[j], s))
-        }
-        None => timed_sum(seconds, discarded, lights, |j, v| {
+        Some((sel, tree, rx)) => sel.timed_estimate(seconds, discarded, tree, rx, kind, record, f),
+        None => timed_sum(seconds, discarded, lights, |j| {
             f(
-                v,
+                j,
                 &mut streams::pair_sampler(pair_seed, pass, kind, record as u32, j as u32),
             )
         }),
     }
 }
 
-/// Σ over a light set of each virtual light's contribution, `f(index, light)`, each
+/// Σ over a light set of `lights` virtual lights of each one's contribution, `f(index)`, each
 /// [`admit`]ted (counted in `discarded`); its CPU time added to `seconds` (an empty set costs
 /// nothing and is not timed).
-fn timed_sum<T>(seconds: &mut f64, discarded: &mut u64, lights: &[T], mut f: impl FnMut(usize, &T) -> Rgb) -> Rgb {
-    if lights.is_empty() {
+fn timed_sum(seconds: &mut f64, discarded: &mut u64, lights: usize, f: impl Fn(usize) -> Rgb) -> Rgb {
+    if lights == 0 {
         return Rgb::ZERO;
     }
-    timed(seconds, || {
-        lights.iter().enumerate().map(|(j, l)| admit(f(j, l), discarded)).sum()
-    })
+    timed(seconds, || (0..lights).map(|j| admit(f(j), discarded)).sum())
 }
 
 /// Runs `f`, adding its duration to `seconds` (per-component CPU time for `--stats`).
-fn timed<R>(seconds: &mut f64, f: impl FnOnce() -> R) -> R {
+pub(crate) fn timed<R>(seconds: &mut f64, f: impl FnOnce() -> R) -> R {
     let clock = Instant::now();
     let r = f();
     *seconds += clock.elapsed().as_secs_f64();

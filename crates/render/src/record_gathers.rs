@@ -1,0 +1,275 @@
+//! The CPU's estimates at a pass's gather records, written once for both kinds of record: a
+//! shading point on a surface and a camera segment through a medium each gather the same two
+//! light sets (the point-like VPLs/VSLs and the ray-like VRLs/VBLs) and one caustic map, through
+//! estimators and into components of their kind ([`Record`]).
+use crate::many_lights::{Selection, admit, credited, direct_stream, gather_lights, injected, timed};
+use beamlight_scene::{Rgb, Scene, rng::Sampler};
+use beamlight_trace::{
+    TraceScene,
+    camera_paths::{MediaSegment, ShadingPoint},
+    components::{Component, gathers_in_medium},
+    direct,
+    light_paths::{LightSegment, SurfaceVertex},
+    light_tree::Receiver,
+    streams::GatherKind,
+    vbl::{self, VblSettings},
+    vpl, vrl,
+};
+use rayon::prelude::*;
+
+const N: usize = Component::ALL.len();
+
+/// How the pass's virtual lights are evaluated: beams and spheres of squared radius `r2`
+/// (`vbl`), or rays and points with the inverse-square falloff clamped at `clamp` (`vrl`).
+pub struct Estimators<'a> {
+    pub beams: bool,
+    pub r2: f32,
+    pub vbl: &'a VblSettings,
+    pub clamp: f32,
+}
+
+/// A kind of gather record, as the CPU estimators see it.
+pub trait Record: Sync {
+    /// The component (and gather kind, which names its random streams) of the light arriving
+    /// from point-like and from ray-like virtual lights, and of the caustic map's.
+    const FROM_POINTS: (Component, GatherKind);
+    const FROM_RAYS: (Component, GatherKind);
+    const CAUSTIC: Component;
+    /// Direct light's stream kind ([`direct_stream`]).
+    const DIRECT_STREAM: u32;
+    fn pixel(&self) -> u32;
+    fn receiver(&self, scene: &Scene) -> Receiver;
+    /// Whether virtual lights are gathered here at all (not in a medium whose phase function
+    /// is a near-delta, whose light the walks carry instead).
+    fn gathers(&self, ts: &TraceScene) -> bool;
+    fn direct(&self, ts: &TraceScene, s: &mut Sampler) -> Rgb;
+    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, e: &Estimators, s: &mut Sampler) -> Rgb;
+    fn ray_light(&self, ts: &TraceScene, v: &LightSegment, e: &Estimators, s: &mut Sampler) -> Rgb;
+}
+
+impl Record for ShadingPoint {
+    const FROM_POINTS: (Component, GatherKind) = (Component::Lss, GatherKind::VplToSurface);
+    const FROM_RAYS: (Component, GatherKind) = (Component::Lsm, GatherKind::VrlToSurface);
+    const CAUSTIC: Component = Component::CausticSurface;
+    const DIRECT_STREAM: u32 = 0;
+
+    fn pixel(&self) -> u32 {
+        self.pixel
+    }
+
+    fn receiver(&self, scene: &Scene) -> Receiver {
+        Receiver::at_point(scene, self)
+    }
+
+    fn gathers(&self, _ts: &TraceScene) -> bool {
+        true
+    }
+
+    fn direct(&self, ts: &TraceScene, s: &mut Sampler) -> Rgb {
+        direct::direct_at_surface(ts, self, s)
+    }
+
+    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, e: &Estimators, s: &mut Sampler) -> Rgb {
+        if e.beams {
+            vbl::vsl_to_surface(ts, self, v, e.r2, e.vbl, s)
+        } else {
+            vpl::vpl_to_surface(ts, self, v, e.clamp, s)
+        }
+    }
+
+    fn ray_light(&self, ts: &TraceScene, v: &LightSegment, e: &Estimators, s: &mut Sampler) -> Rgb {
+        if e.beams {
+            vbl::vbl_to_surface(ts, self, v, e.r2, e.vbl, s)
+        } else {
+            vrl::vrl_to_surface(ts, self, v, e.clamp, s)
+        }
+    }
+}
+
+impl Record for MediaSegment {
+    const FROM_POINTS: (Component, GatherKind) = (Component::Lms, GatherKind::VplToMedia);
+    const FROM_RAYS: (Component, GatherKind) = (Component::Lmm, GatherKind::VrlToMedia);
+    const CAUSTIC: Component = Component::CausticVolume;
+    const DIRECT_STREAM: u32 = 1;
+
+    fn pixel(&self) -> u32 {
+        self.pixel
+    }
+
+    fn receiver(&self, scene: &Scene) -> Receiver {
+        Receiver::along_segment(scene, self)
+    }
+
+    fn gathers(&self, ts: &TraceScene) -> bool {
+        gathers_in_medium(ts.scene.media[self.medium as usize].g)
+    }
+
+    fn direct(&self, ts: &TraceScene, s: &mut Sampler) -> Rgb {
+        direct::direct_in_medium(ts, self, s)
+    }
+
+    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, e: &Estimators, s: &mut Sampler) -> Rgb {
+        if e.beams {
+            vbl::vsl_to_media(ts, self, v, e.r2, e.vbl, s)
+        } else {
+            vpl::vpl_to_media(ts, self, v, e.clamp, s)
+        }
+    }
+
+    fn ray_light(&self, ts: &TraceScene, v: &LightSegment, e: &Estimators, s: &mut Sampler) -> Rgb {
+        if e.beams {
+            vbl::vbl_to_media(ts, self, v, e.r2, e.vbl, s)
+        } else {
+            vrl::vrl_to_media(ts, self, v, e.clamp, s)
+        }
+    }
+}
+
+/// One record's estimates per component ([`Component::ALL`] order), their CPU seconds and
+/// discards.
+pub struct RecordEstimate {
+    pub pixel: u32,
+    pub value: [Rgb; N],
+    pub seconds: [f64; N],
+    pub discarded: [u64; N],
+}
+
+/// A caustic map's radiance at record `i`, divided by its light path count.
+pub type CausticLookup<'a, R> = &'a (dyn Fn(usize, &R) -> Rgb + Sync);
+
+/// What a pass's CPU gathers share.
+pub struct PassGathers<'a> {
+    pub ts: &'a TraceScene,
+    pub seed: u32,
+    pub pass: u32,
+    pub pair_seed: u32,
+    /// The components the pass computes.
+    pub computed: [bool; N],
+    /// The virtual-light gathers run here (no GPU takes them).
+    pub virtual_lights: bool,
+    pub selection: Option<&'a Selection>,
+    pub vpls: &'a [SurfaceVertex],
+    pub vrls: &'a [LightSegment],
+    /// The gathers' light path count M.
+    pub m: f32,
+    pub estimators: Estimators<'a>,
+    /// [`crate::many_lights::ManyLightSettings::inject_nan`].
+    pub inject_nan: bool,
+}
+
+impl RecordEstimate {
+    fn new(pixel: u32) -> Self {
+        Self {
+            pixel,
+            value: [Rgb::ZERO; N],
+            seconds: [0.0; N],
+            discarded: [0; N],
+        }
+    }
+
+    /// Adds `v` to component `k`, [`admit`]ted.
+    fn add(&mut self, k: usize, v: Rgb) {
+        self.value[k] += admit(v, &mut self.discarded[k]);
+    }
+}
+
+/// The two light sets of a pass's gathers.
+#[derive(Clone, Copy)]
+enum LightSet {
+    /// VPLs or VSLs.
+    Points,
+    /// VRLs or VBLs.
+    Rays,
+}
+
+impl PassGathers<'_> {
+    /// Every record's estimates, in parallel: a walk record's own direct light, the
+    /// virtual-light gathers (when on the CPU), and the caustic map's radiance, `caustic(i,
+    /// record)` (already divided by its path count), when there is a map. `credits[i]` is the
+    /// component a walk record's every estimate is credited to ([`credited`]).
+    pub fn estimate<R: Record>(
+        &self,
+        records: &[R],
+        credits: &[Option<Component>],
+        caustic: Option<CausticLookup<R>>,
+    ) -> Vec<RecordEstimate> {
+        let ts = self.ts;
+        records
+            .par_iter()
+            .enumerate()
+            .map(|(i, record)| {
+                let mut e = RecordEstimate::new(record.pixel());
+                let credit = credits[i];
+                let want = |component: Component| self.computed[credited(component, credit) as usize];
+                if let Some(k) = credit.map(|k| k as usize).filter(|&k| self.computed[k]) {
+                    // A walk record's direct light; the camera's records' is part of
+                    // `direct_light`.
+                    let mut sd = direct_stream(self.seed, self.pass, R::DIRECT_STREAM, i);
+                    let v = timed(&mut e.seconds[k], || record.direct(ts, &mut sd));
+                    e.add(k, v);
+                }
+                if self.virtual_lights && record.gathers(ts) {
+                    let rx = self.selection.map(|sel| (sel, record.receiver(&ts.scene)));
+                    if want(R::FROM_POINTS.0) {
+                        self.gather(&mut e, (i, record), credit, rx.as_ref(), LightSet::Points);
+                    }
+                    if want(R::FROM_RAYS.0) {
+                        self.gather(&mut e, (i, record), credit, rx.as_ref(), LightSet::Rays);
+                    }
+                }
+                if let Some(caustic) = caustic {
+                    let k = credited(R::CAUSTIC, credit) as usize;
+                    let v = timed(&mut e.seconds[k], || caustic(i, record));
+                    e.add(k, injected(v, self.poison(i, 1)));
+                }
+                e
+            })
+            .collect()
+    }
+
+    /// Record `i`'s gather over one light set (the lights it draws with light selection,
+    /// `rx`, or all of them), divided by the path count M, into the component it credits; the
+    /// gather's time and discards are its own component's.
+    fn gather<R: Record>(
+        &self,
+        e: &mut RecordEstimate,
+        (i, record): (usize, &R),
+        credit: Option<Component>,
+        rx: Option<&(&Selection, Receiver)>,
+        set: LightSet,
+    ) {
+        let (ts, est) = (self.ts, &self.estimators);
+        let ((component, kind), lights) = match set {
+            LightSet::Points => (R::FROM_POINTS, self.vpls.len()),
+            LightSet::Rays => (R::FROM_RAYS, self.vrls.len()),
+        };
+        let drawn = rx.map(|(sel, rx)| {
+            let tree = match set {
+                LightSet::Points => &sel.vsls,
+                LightSet::Rays => &sel.vbls,
+            };
+            (*sel, tree, rx)
+        });
+        let own = component as usize;
+        let v = gather_lights(
+            drawn,
+            (&mut e.seconds[own], &mut e.discarded[own]),
+            lights,
+            (kind, i, self.pair_seed, self.pass),
+            &|j, s| match set {
+                LightSet::Points => record.point_light(ts, &self.vpls[j], est, s),
+                LightSet::Rays => record.ray_light(ts, &self.vrls[j], est, s),
+            },
+        );
+        e.add(
+            credited(component, credit) as usize,
+            injected(v / self.m, self.poison(i, lights)),
+        );
+    }
+
+    /// Fault injection (`inject_nan`): the gather over a set of `lights` poisons its first
+    /// record, as the GPU's does.
+    fn poison(&self, i: usize, lights: usize) -> bool {
+        self.inject_nan && i == 0 && lights > 0
+    }
+}
