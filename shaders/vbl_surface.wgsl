@@ -1,5 +1,5 @@
 //! use lib/vbl.wgsl
-//! use lib/light_tree.wgsl
+//! use lib/gather_entry.wgsl
 // Lsm with virtual beam lights: every VRL, its points inflated to radius R, against one
 // shading point, the twin of `beamlight_trace::vbl::vbl_to_surface` (paper eqs. 8–9): the VSL
 // centre on the VRL by a piecewise-linear PDF in the angle about the shading point, then the
@@ -63,39 +63,40 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     return sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = record_index(gid);
-    if i >= params.records {
-        return;
-    }
+// The hooks of the shared entry point (lib/gather_entry.wgsl).
+const GATHER_KIND: u32 = KIND_VRL_TO_SURFACE;
+
+struct GatherRecord {
+    sp: ShadingPoint,
+    f_sp: Bsdf,
+    // The receiver's lobe, when it has one.
+    rx: Lobe,
+}
+
+fn gather_record(i: u32) -> GatherRecord {
     let sp = shading_points[i];
     let f_sp = point_bsdfs[i];
-    var sum = vec3<f32>(0.0);
-    var discarded = 0u;
-    // `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
+    var rx: Lobe;
     if f_sp.kind != BSDF_NONE {
-        let rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
-        if params.light_samples == 0u {
-            for (var j = 0u; j < params.lights; j++) {
-                var s = pair_sampler(KIND_VRL_TO_SURFACE, i, j);
-                sum += admit(vbl_to_surface(sp, rx, vrls[j], &s), &discarded);
-            }
-        } else if params.vbl_tree_nodes > 0u {
-            // Light selection: `light_samples` lights drawn from the pass's tree, each over its
-            // probability (`many_lights::timed_drawn`).
-            let receiver = point_receiver(sp.pos, sp.normal, sp.wo, f_sp);
-            let xi = selection_number(KIND_VRL_TO_SURFACE, i);
-            for (var k = 0u; k < params.light_samples; k++) {
-                let pick = tree_sample_slot(params.vsl_tree_nodes, receiver, KIND_VRL_TO_SURFACE, i, k, xi);
-                if pick.found {
-                    var s = drawn_pair_sampler(KIND_VRL_TO_SURFACE, i, k);
-                    sum += admit(vbl_to_surface(sp, rx, vrls[pick.light], &s), &discarded) / pick.pmf;
-                }
-            }
-            sum = sum / f32(params.light_samples);
-        }
+        rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
     }
-    let total = admit(injected(sum * params.scale, i), &discarded);
-    gathered[i] = vec4<f32>(total, f32(discarded));
+    return GatherRecord(sp, f_sp, rx);
+}
+
+// `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
+fn gathers_here(r: GatherRecord) -> bool {
+    return r.f_sp.kind != BSDF_NONE;
+}
+
+fn record_receiver(r: GatherRecord) -> Receiver {
+    return point_receiver(r.sp.pos, r.sp.normal, r.sp.wo, r.f_sp);
+}
+
+// The VBL tree: after the VSL tree's nodes in the pass's tree array.
+fn light_tree_of(r: GatherRecord) -> vec2<u32> {
+    return vec2<u32>(params.vsl_tree_nodes, params.vbl_tree_nodes);
+}
+
+fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return vbl_to_surface(r.sp, r.rx, vrls[light], s);
 }

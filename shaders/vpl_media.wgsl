@@ -1,5 +1,5 @@
-//! use lib/gather.wgsl
 //! use lib/media.wgsl
+//! use lib/gather_entry.wgsl
 // Lms with virtual point lights: every VPL against one camera media segment, the twin of
 // `beamlight_trace::vpl::vpl_to_media` (the point on the segment sampled equiangularly).
 
@@ -37,19 +37,31 @@ fn vpl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     return seg.throughput * sigma_s * t_cam * vpl.power * f * tr * falloff(d2) / pdf;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = record_index(gid);
-    if i >= params.records {
-        return;
-    }
-    let seg = media_segments[i];
-    var sum = vec3<f32>(0.0);
-    var discarded = 0u;
-    for (var j = 0u; j < params.lights; j++) {
-        var s = pair_sampler(KIND_VPL_TO_MEDIA, i, j);
-        sum += admit(vpl_to_media(seg, vpls[j], vpl_bsdfs[j], &s), &discarded);
-    }
-    let total = admit(injected(sum * params.scale, i), &discarded);
-    gathered[i] = vec4<f32>(total, f32(discarded));
+// The hooks of the shared entry point (lib/gather_entry.wgsl).
+const GATHER_KIND: u32 = KIND_VPL_TO_MEDIA;
+
+struct GatherRecord {
+    seg: MediaSegment,
+}
+
+fn gather_record(i: u32) -> GatherRecord {
+    return GatherRecord(media_segments[i]);
+}
+
+fn gathers_here(r: GatherRecord) -> bool {
+    return true;
+}
+
+// Virtual ray and point lights are gathered without light selection: no tree, so the entry
+// point never asks for a receiver.
+fn light_tree_of(r: GatherRecord) -> vec2<u32> {
+    return vec2<u32>(0u, 0u);
+}
+
+fn record_receiver(r: GatherRecord) -> Receiver {
+    return segment_receiver(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0);
+}
+
+fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return vpl_to_media(r.seg, vpls[light], vpl_bsdfs[light], s);
 }

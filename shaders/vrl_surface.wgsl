@@ -1,5 +1,5 @@
-//! use lib/gather.wgsl
 //! use lib/media.wgsl
+//! use lib/gather_entry.wgsl
 // Lsm with virtual ray lights: every VRL against one shading point, the twin of
 // `beamlight_trace::vrl::vrl_to_surface` (the point on the VRL sampled equiangularly).
 
@@ -34,20 +34,32 @@ fn vrl_to_surface(sp: ShadingPoint, f_sp: Bsdf, vrl: LightSegment, s: ptr<functi
     return sp.throughput * vrl.power * sigma_s * t_vrl * f * tr * falloff(dist * dist) / pdf;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = record_index(gid);
-    if i >= params.records {
-        return;
-    }
-    let sp = shading_points[i];
-    let f_sp = point_bsdfs[i];
-    var sum = vec3<f32>(0.0);
-    var discarded = 0u;
-    for (var j = 0u; j < params.lights; j++) {
-        var s = pair_sampler(KIND_VRL_TO_SURFACE, i, j);
-        sum += admit(vrl_to_surface(sp, f_sp, vrls[j], &s), &discarded);
-    }
-    let total = admit(injected(sum * params.scale, i), &discarded);
-    gathered[i] = vec4<f32>(total, f32(discarded));
+// The hooks of the shared entry point (lib/gather_entry.wgsl).
+const GATHER_KIND: u32 = KIND_VRL_TO_SURFACE;
+
+struct GatherRecord {
+    sp: ShadingPoint,
+    f_sp: Bsdf,
+}
+
+fn gather_record(i: u32) -> GatherRecord {
+    return GatherRecord(shading_points[i], point_bsdfs[i]);
+}
+
+fn gathers_here(r: GatherRecord) -> bool {
+    return true;
+}
+
+// Virtual ray and point lights are gathered without light selection: no tree, so the entry
+// point never asks for a receiver.
+fn light_tree_of(r: GatherRecord) -> vec2<u32> {
+    return vec2<u32>(0u, 0u);
+}
+
+fn record_receiver(r: GatherRecord) -> Receiver {
+    return segment_receiver(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0);
+}
+
+fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return vrl_to_surface(r.sp, r.f_sp, vrls[light], s);
 }

@@ -1,5 +1,5 @@
 //! use lib/vbl.wgsl
-//! use lib/light_tree.wgsl
+//! use lib/gather_entry.wgsl
 // Lms with virtual spherical lights: every VPL, inflated to radius R, against one camera
 // media segment, the twin of `beamlight_trace::vbl::vsl_to_media` (paper §3.3): the camera
 // point by a piecewise-linear PDF in the angle about the VPL, then the VSL's cone integrated
@@ -65,34 +65,30 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     return seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = record_index(gid);
-    if i >= params.records {
-        return;
-    }
-    let seg = media_segments[i];
-    var sum = vec3<f32>(0.0);
-    var discarded = 0u;
-    if params.light_samples == 0u {
-        for (var j = 0u; j < params.lights; j++) {
-            var s = pair_sampler(KIND_VPL_TO_MEDIA, i, j);
-            sum += admit(vsl_to_media(seg, vpls[j], vpl_bsdfs[j], &s), &discarded);
-        }
-    } else if params.vsl_tree_nodes > 0u {
-        // Light selection: `light_samples` lights drawn from the pass's tree, each over its
-        // probability (`many_lights::timed_drawn`).
-        let receiver = segment_receiver(seg.origin, seg.dir, seg.length, media[seg.medium].g);
-        let xi = selection_number(KIND_VPL_TO_MEDIA, i);
-        for (var k = 0u; k < params.light_samples; k++) {
-            let pick = tree_sample_slot(0u, receiver, KIND_VPL_TO_MEDIA, i, k, xi);
-            if pick.found {
-                var s = drawn_pair_sampler(KIND_VPL_TO_MEDIA, i, k);
-                sum += admit(vsl_to_media(seg, vpls[pick.light], vpl_bsdfs[pick.light], &s), &discarded) / pick.pmf;
-            }
-        }
-        sum = sum / f32(params.light_samples);
-    }
-    let total = admit(injected(sum * params.scale, i), &discarded);
-    gathered[i] = vec4<f32>(total, f32(discarded));
+// The hooks of the shared entry point (lib/gather_entry.wgsl).
+const GATHER_KIND: u32 = KIND_VPL_TO_MEDIA;
+
+struct GatherRecord {
+    seg: MediaSegment,
+}
+
+fn gather_record(i: u32) -> GatherRecord {
+    return GatherRecord(media_segments[i]);
+}
+
+fn gathers_here(r: GatherRecord) -> bool {
+    return true;
+}
+
+// The VSL tree: the first nodes of the pass's tree array.
+fn light_tree_of(r: GatherRecord) -> vec2<u32> {
+    return vec2<u32>(0u, params.vsl_tree_nodes);
+}
+
+fn record_receiver(r: GatherRecord) -> Receiver {
+    return segment_receiver(r.seg.origin, r.seg.dir, r.seg.length, media[r.seg.medium].g);
+}
+
+fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return vsl_to_media(r.seg, vpls[light], vpl_bsdfs[light], s);
 }

@@ -1,5 +1,5 @@
 //! use lib/vbl.wgsl
-//! use lib/light_tree.wgsl
+//! use lib/gather_entry.wgsl
 // Lss with virtual spherical lights: every VPL, inflated to radius R, against one shading
 // point, the twin of `beamlight_trace::vbl::vsl_to_surface` (Hašan et al.'s VSLs).
 
@@ -28,39 +28,40 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, s
     return sp.throughput * vpl.power * l_vsl;
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = record_index(gid);
-    if i >= params.records {
-        return;
-    }
+// The hooks of the shared entry point (lib/gather_entry.wgsl).
+const GATHER_KIND: u32 = KIND_VPL_TO_SURFACE;
+
+struct GatherRecord {
+    sp: ShadingPoint,
+    f_sp: Bsdf,
+    // The receiver's lobe, when it has one.
+    rx: Lobe,
+}
+
+fn gather_record(i: u32) -> GatherRecord {
     let sp = shading_points[i];
     let f_sp = point_bsdfs[i];
-    var sum = vec3<f32>(0.0);
-    var discarded = 0u;
-    // `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
+    var rx: Lobe;
     if f_sp.kind != BSDF_NONE {
-        let rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
-        if params.light_samples == 0u {
-            for (var j = 0u; j < params.lights; j++) {
-                var s = pair_sampler(KIND_VPL_TO_SURFACE, i, j);
-                sum += admit(vsl_to_surface(sp, rx, vpls[j], vpl_bsdfs[j], &s), &discarded);
-            }
-        } else if params.vsl_tree_nodes > 0u {
-            // Light selection: `light_samples` lights drawn from the pass's tree, each over its
-            // probability (`many_lights::timed_drawn`).
-            let receiver = point_receiver(sp.pos, sp.normal, sp.wo, f_sp);
-            let xi = selection_number(KIND_VPL_TO_SURFACE, i);
-            for (var k = 0u; k < params.light_samples; k++) {
-                let pick = tree_sample_slot(0u, receiver, KIND_VPL_TO_SURFACE, i, k, xi);
-                if pick.found {
-                    var s = drawn_pair_sampler(KIND_VPL_TO_SURFACE, i, k);
-                    sum += admit(vsl_to_surface(sp, rx, vpls[pick.light], vpl_bsdfs[pick.light], &s), &discarded) / pick.pmf;
-                }
-            }
-            sum = sum / f32(params.light_samples);
-        }
+        rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
     }
-    let total = admit(injected(sum * params.scale, i), &discarded);
-    gathered[i] = vec4<f32>(total, f32(discarded));
+    return GatherRecord(sp, f_sp, rx);
+}
+
+// `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
+fn gathers_here(r: GatherRecord) -> bool {
+    return r.f_sp.kind != BSDF_NONE;
+}
+
+fn record_receiver(r: GatherRecord) -> Receiver {
+    return point_receiver(r.sp.pos, r.sp.normal, r.sp.wo, r.f_sp);
+}
+
+// The VSL tree: the first nodes of the pass's tree array.
+fn light_tree_of(r: GatherRecord) -> vec2<u32> {
+    return vec2<u32>(0u, params.vsl_tree_nodes);
+}
+
+fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return vsl_to_surface(r.sp, r.rx, vpls[light], vpl_bsdfs[light], s);
 }

@@ -3,6 +3,8 @@
 //! WGSL has no include mechanism, so we add one, kept deliberately small: a file's leading
 //! lines `//! use lib/NAME.wgsl` name the library files it builds on. [`compose`] emits those
 //! files first (depth first, each at most once, in the order named), then the file itself.
+//! A library file may also name `//! hooks`: what each kernel using it must define (WGSL
+//! resolves names across the whole module, so a shared entry point can call them).
 //! Helpers (random numbers, geometry, traversal, media, materials) thus exist once in
 //! `shaders/lib/`, and every kernel in `shaders/` (or `shaders/test/`) says what it needs.
 //! All sources are compiled into the binary; `tests/shaders.rs` checks that this table lists
@@ -22,6 +24,10 @@ pub const SOURCES: &[(&str, &str)] = &[
     (
         "lib/light_tree.wgsl",
         include_str!("../../../shaders/lib/light_tree.wgsl"),
+    ),
+    (
+        "lib/gather_entry.wgsl",
+        include_str!("../../../shaders/lib/gather_entry.wgsl"),
     ),
     ("trace_rays.wgsl", include_str!("../../../shaders/trace_rays.wgsl")),
     ("vpl_surface.wgsl", include_str!("../../../shaders/vpl_surface.wgsl")),
@@ -73,6 +79,16 @@ pub fn uses(text: &str) -> impl Iterator<Item = &str> {
         .map_while(|l| l.trim().strip_prefix("//!"))
         .filter_map(|l| l.trim().strip_prefix("use "))
         .map(str::trim)
+}
+
+/// What a library file leaves to the kernels that use it, from its leading `//! hooks` lines:
+/// the names (constants, types, functions) each such kernel defines. A file with hooks is a
+/// template (the gather kernels' shared entry point) and is valid only inside a kernel.
+pub fn hooks(text: &str) -> impl Iterator<Item = &str> {
+    text.lines()
+        .map_while(|l| l.trim().strip_prefix("//!"))
+        .filter_map(|l| l.trim().strip_prefix("hooks "))
+        .flat_map(str::split_whitespace)
 }
 
 /// The complete WGSL of kernel `name` (a path under `shaders/`).

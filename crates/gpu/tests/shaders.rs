@@ -67,8 +67,42 @@ fn every_kernel_composes_and_validates() {
 fn every_library_file_validates_with_what_it_uses() {
     // A library file composed on its own must also be valid WGSL (no hidden dependency on
     // what a kernel happens to include before it).
-    for (name, _) in SOURCES.iter().filter(|(n, _)| n.starts_with("lib/")) {
+    // Templates (files with hooks) are checked below, inside their kernels.
+    for (name, _) in SOURCES
+        .iter()
+        .filter(|(n, text)| n.starts_with("lib/") && shaders::hooks(text).next().is_none())
+    {
         validated(name);
+    }
+}
+
+/// A template's hooks are defined by every kernel that uses it, in the kernel's own file (not
+/// by another library file it happens to include), and at least one kernel uses each template.
+#[test]
+fn every_kernel_defines_the_hooks_of_the_templates_it_uses() {
+    for (template, text) in SOURCES.iter().filter(|(_, t)| shaders::hooks(t).next().is_some()) {
+        let users: Vec<&str> = shaders::kernels()
+            .filter(|k| {
+                shaders::compose(k)
+                    .unwrap()
+                    .contains(&format!("// ---- shaders/{template} ----"))
+            })
+            .collect();
+        assert!(!users.is_empty(), "{template}: no kernel uses it");
+        for kernel in users {
+            let own = SOURCES.iter().find(|(n, _)| *n == kernel).unwrap().1;
+            for hook in shaders::hooks(text) {
+                let defined = ["fn", "struct", "const"].iter().any(|kw| {
+                    own.contains(&format!("{kw} {hook}("))
+                        || own.contains(&format!("{kw} {hook} "))
+                        || own.contains(&format!("{kw} {hook}:"))
+                });
+                assert!(
+                    defined,
+                    "{kernel} uses {template} but does not define its hook `{hook}`"
+                );
+            }
+        }
     }
 }
 

@@ -1,0 +1,48 @@
+//! use lib/gather.wgsl
+//! use lib/light_tree.wgsl
+//! hooks GATHER_KIND GatherRecord gather_record gathers_here light_tree_of record_receiver light_contribution
+// The entry point of every gather kernel: one invocation per gather record sums its estimate
+// over the pass's virtual lights, all of them, each with its pair's stream, or with light
+// selection (`params.light_samples` > 0) that many drawn from the pass's light tree, each over
+// its probability (the CPU's twin: `many_lights::gather_lights`), and writes it with its
+// discard count. The kernel file supplies what differs between kernels (the `hooks` above):
+//   const GATHER_KIND: u32                    the gather kind, which names its random streams
+//   struct GatherRecord                       what the kernel reads of a record, once
+//   fn gather_record(i: u32) -> GatherRecord
+//   fn gathers_here(r: GatherRecord) -> bool  false: nothing to gather at this record
+//   fn light_tree_of(r: GatherRecord) -> vec2<u32>  its tree's first node and node count
+//   fn record_receiver(r: GatherRecord) -> Receiver  what the tree's bounds are taken for
+//   fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32>
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = record_index(gid);
+    if i >= params.records {
+        return;
+    }
+    let r = gather_record(i);
+    var sum = vec3<f32>(0.0);
+    var discarded = 0u;
+    if gathers_here(r) {
+        let tree = light_tree_of(r);
+        if params.light_samples == 0u {
+            for (var j = 0u; j < params.lights; j++) {
+                var s = pair_sampler(GATHER_KIND, i, j);
+                sum += admit(light_contribution(r, j, &s), &discarded);
+            }
+        } else if tree.y > 0u {
+            let receiver = record_receiver(r);
+            let xi = selection_number(GATHER_KIND, i);
+            for (var k = 0u; k < params.light_samples; k++) {
+                let pick = tree_sample_slot(tree.x, receiver, GATHER_KIND, i, k, xi);
+                if pick.found {
+                    var s = drawn_pair_sampler(GATHER_KIND, i, k);
+                    sum += admit(light_contribution(r, pick.light, &s), &discarded) / pick.pmf;
+                }
+            }
+            sum = sum / f32(params.light_samples);
+        }
+    }
+    let total = admit(injected(sum * params.scale, i), &discarded);
+    gathered[i] = vec4<f32>(total, f32(discarded));
+}
