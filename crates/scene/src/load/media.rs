@@ -1,6 +1,8 @@
 //! Media from the sidecar: validation, medium regions (closed meshes), nesting, density grids.
 use super::TomlSrc;
-use super::build::{Geometry, Traversal, mesh_label, name_list, node_label};
+use super::geometry::Geometry;
+use super::names::{mesh_label, name_list, node_label};
+use super::nodes::Traversal;
 use super::sidecar::{DensityToml, Num, PerlinToml, Rgb3, Sidecar};
 use crate::SceneError;
 use crate::medium::{DensityGrid, Medium, parse_grid};
@@ -12,18 +14,6 @@ use gltf::json;
 use std::collections::HashMap;
 use std::ops::Range;
 use toml::Spanned;
-
-/// One instance (node) of a mesh that bounds a medium.
-pub(super) struct RegionInstance {
-    /// Index into the planned media.
-    pub medium: usize,
-    pub mesh: usize,
-    pub node: usize,
-    /// Its (non-degenerate) triangles in [`Geometry::triangles`].
-    pub tris: Range<usize>,
-    /// All its world-space triangles, degenerate ones included, for the topology checks.
-    pub raw: Vec<[Vec3; 3]>,
-}
 
 enum GridSource {
     Values(Vec<f32>),

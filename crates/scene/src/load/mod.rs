@@ -160,10 +160,17 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 mod build;
+mod camera;
+mod geometry;
 mod gltf_read;
 mod images;
+mod lights;
+mod materials;
 mod media;
+mod names;
+mod nodes;
 mod sidecar;
+mod triangles;
 
 /// Loads a scene from a TOML sidecar (`.toml`), or a `.gltf`/`.glb` file alone (then with the
 /// default render settings). See the [module documentation](self) for the format, the defaults
