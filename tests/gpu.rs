@@ -9,7 +9,8 @@ use beamlight_gpu::{
     gather::{GatherInputs, GatherKernel},
 };
 use beamlight_render::{Budget, Method, RenderOptions, many_lights::ManyLightSettings, render};
-use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, gltf_writer::shapes, scene::MediumInterface};
+use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, scene::MediumInterface};
+use beamlight_testkit::gltf_writer::shapes;
 use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},

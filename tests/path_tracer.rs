@@ -432,7 +432,8 @@ fn constant_grid_matches_homogeneous_medium() {
 /// ray inside the boxes), computed here with the slab method.
 #[test]
 fn bounded_media_switch_at_invisible_boundaries() {
-    use beamlight_scene::{gltf_writer::shapes, scene::MediumInterface};
+    use beamlight_scene::scene::MediumInterface;
+    use beamlight_testkit::gltf_writer::shapes;
     let (w, h, fov) = (8u32, 8u32, 70f32);
     let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.2, 0.1, -1.0), fov, w, h);
     let wall = add_material(&mut s, emitter("wall", 1.0));

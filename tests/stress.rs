@@ -12,7 +12,8 @@ use beamlight_gpu::{
     gather::{GatherInputs, GatherKernel, KERNELS},
 };
 use beamlight_render::{Budget, Method, RenderOptions, RenderResult, many_lights::ManyLightSettings, render};
-use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, gltf_writer::shapes};
+use beamlight_scene::{Rgb, Scene, bsdf::Bsdf};
+use beamlight_testkit::gltf_writer::shapes;
 use beamlight_trace::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},

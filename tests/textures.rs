@@ -2,7 +2,7 @@
 //! sidecar, rendered by the path tracer, and checked against the closed form
 //! ρ(uv)/π · I cosθ / d² of a point light over a textured Lambert floor.
 mod common;
-use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
+use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
 use beamlight_scene::load::load_scene;
 use beamlight_scene::texture::Wrap;
 use common::*;

@@ -268,7 +268,8 @@ pub fn furnace_box(
 /// The furnace with lossless specular objects: a glass sphere (ior 1.5) filled with a chromatic
 /// scattering medium and, optionally, a perfect mirror cube.
 pub fn glass_furnace(size: u32, sphere_segments: u32, mirror: bool) -> beamlight_scene::Scene {
-    use beamlight_scene::{bsdf::Bsdf, gltf_writer::shapes, scene::MediumInterface};
+    use beamlight_scene::{bsdf::Bsdf, scene::MediumInterface};
+    use beamlight_testkit::gltf_writer::shapes;
     let mut s = furnace(Rgb::splat(0.4), 0.2, None);
     s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, size, size).camera;
     s.render.width = size;
@@ -589,7 +590,7 @@ pub fn assert_components_match(
 /// a global fog, with a back wall, so the caustics (through the ball onto the floor, and into the fog) have light
 /// as well as direct light and the four virtual-light gathers.
 pub fn write_glass_ball_scene(dir: &std::path::Path) -> std::path::PathBuf {
-    use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
+    use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
     let mut b = GltfBuilder::new();
     let glass = b.material(MaterialDesc::glass("Glass", 1.5));
     let (p, i) = shapes::uv_sphere(Vec3::ZERO, 0.5, 8, 16);

@@ -2,7 +2,7 @@
 //!
 //! Everything here is deterministic: running `cargo xtask assets` twice writes byte-identical
 //! files, and `cargo xtask assets --check` fails when the committed files differ.
-use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, NodeDesc, shapes};
+use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, NodeDesc, shapes};
 use glam::{Quat, Vec3};
 
 /// (path relative to the workspace root, contents) of every generated asset.

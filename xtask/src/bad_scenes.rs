@@ -1,6 +1,6 @@
 //! The generated part of the broken-scene corpus in `tests/bad_scenes/` (glTF, GLB and buffer
 //! files; the `.toml` cases and the README there are written by hand).
-use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
+use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
 use glam::Vec3;
 use serde_json::{Value, json};
 

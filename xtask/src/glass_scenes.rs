@@ -13,7 +13,7 @@
 //! * `cars_small`: the CARS analogue's geometry and materials with coarse car bodies, so that a
 //!   reference and a bench fit in minutes (its bulbs have a real radius, 0.08, inside solid glass
 //!   globes: all direct light is caustic).
-use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, NodeDesc, shapes};
+use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, NodeDesc, shapes};
 use glam::Vec3;
 
 /// (path relative to the workspace root, contents) of the glass scenes.

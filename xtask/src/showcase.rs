@@ -10,7 +10,7 @@
 //!   direct light is caustic. The mesh is ~54 MB, so it is generated, not committed.
 //! * `smokyroom`: a room of isotropic smoke whose density is fractal Perlin noise thinning with
 //!   height, lit through a window-like panel and by a ceiling lamp.
-use beamlight_scene::gltf_writer::{GltfBuilder, IndexWidth, MaterialDesc, NodeDesc, shapes};
+use beamlight_testkit::gltf_writer::{GltfBuilder, IndexWidth, MaterialDesc, NodeDesc, shapes};
 use glam::{Quat, Vec3};
 
 /// The committed showcase files (scene sidecars and the small meshes).

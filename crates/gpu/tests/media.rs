@@ -29,11 +29,11 @@ use beamlight_scene::{
     Rgb, Scene,
     bsdf::{Bsdf, Material},
     camera::Camera,
-    gltf_writer::shapes,
     medium::{DensityGrid, Medium},
     rng::Sampler,
     scene::{MediumId, MediumInterface, RenderSettings, Triangle},
 };
+use beamlight_testkit::gltf_writer::shapes;
 use beamlight_trace::{TraceScene, lights::LightSample};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, UVec3, Vec3};

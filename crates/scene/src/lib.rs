@@ -13,7 +13,6 @@ pub mod bsdf;
 pub mod camera;
 pub mod error;
 pub mod frame;
-pub mod gltf_writer;
 pub mod light;
 pub mod load;
 pub mod medium;

@@ -2,7 +2,7 @@
 //! the broken-scene corpus in `tests/bad_scenes/` (every case must fail with a clear message
 //! naming the file, never panic).
 use beamlight_scene::bsdf::Bsdf;
-use beamlight_scene::gltf_writer::{GltfBuilder, IndexWidth, MaterialDesc, NodeDesc, shapes};
+use beamlight_testkit::gltf_writer::{GltfBuilder, IndexWidth, MaterialDesc, NodeDesc, shapes};
 use beamlight_scene::light::PunctualLight;
 use beamlight_scene::load::load_scene;
 use beamlight_scene::medium::write_grid;
