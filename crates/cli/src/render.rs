@@ -334,29 +334,17 @@ impl Outputs<'_> {
         elapsed: Duration,
     ) -> Result<()> {
         let args = self.args;
-        let passes = film.samples;
-        let image = film.image();
         let mut metadata = vec![
             ("beamlight.method", self.method.name().to_string()),
-            ("beamlight.passes", passes.to_string()),
-            ("beamlight.spp", passes.to_string()),
             ("beamlight.seed", args.seed.to_string()),
             ("beamlight.render_seconds", format!("{:.3}", elapsed.as_secs_f64())),
             ("beamlight.scene", args.scene.display().to_string()),
             ("beamlight.backend", self.backend.to_string()),
-            ("beamlight.rejected_samples", film.rejected.to_string()),
-            ("beamlight.discarded_estimates", discarded.to_string()),
         ];
         if let Some(report) = auto {
             metadata.push(("beamlight.auto", report.lines().join("; ")));
         }
-        let layers: Vec<(Component, beamlight_render::Image)> = Component::ALL
-            .iter()
-            .zip(components)
-            .map(|(c, f)| (*c, f.image()))
-            .collect();
-        let named: Vec<(&str, &beamlight_render::Image)> = layers.iter().map(|(c, i)| (c.name(), i)).collect();
-        output::write_exr_layers(&args.output, &image, &named, &metadata)?;
+        let image = output::write_films(&args.output, film, components, discarded, &metadata)?;
         if let Some(p) = &args.preview {
             output::write_png(p, &image, args.exposure)?;
         }

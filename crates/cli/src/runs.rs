@@ -135,22 +135,12 @@ pub fn merge(
     let expected = expected.map(|r| r.start.unwrap_or(0)..r.end);
     let (merged, coverage) = Accumulators::merge(read, expected).map_err(|e| anyhow::anyhow!("merge: {e}"))?;
     eprintln!("pass ranges:\n{coverage}");
-    let image = merged.film.image();
-    let layers: Vec<(&str, beamlight_render::Image)> = beamlight_trace::components::Component::ALL
-        .iter()
-        .zip(&merged.components)
-        .map(|(c, f)| (c.name(), f.image()))
-        .collect();
-    let named: Vec<(&str, &beamlight_render::Image)> = layers.iter().map(|(n, i)| (*n, i)).collect();
     let metadata = [
-        ("beamlight.passes", merged.passes().to_string()),
-        ("beamlight.spp", merged.passes().to_string()),
         ("beamlight.first_pass", merged.first_pass.to_string()),
         ("beamlight.fingerprint", merged.fingerprint.clone()),
-        ("beamlight.rejected_samples", merged.film.rejected.to_string()),
-        ("beamlight.discarded_estimates", merged.discarded.to_string()),
     ];
-    beamlight_render::output::write_exr_layers(output, &image, &named, &metadata)?;
+    let image =
+        beamlight_render::output::write_films(output, &merged.film, &merged.components, &merged.discarded, &metadata)?;
     if let Some(p) = preview {
         beamlight_render::output::write_png(p, &image, exposure)?;
     }

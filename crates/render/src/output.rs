@@ -46,6 +46,35 @@ pub fn write_exr(path: &Path, image: &Image, metadata: &[(&str, String)]) -> Res
     write_exr_layers(path, image, &[], metadata)
 }
 
+/// Writes a render's films: the beauty's mean and one layer per component film (in
+/// `Component::ALL` order, named as the components; none when `components` is empty), with
+/// the pass count, rejected samples and discarded estimates in the header before `metadata`.
+/// What `render` and `merge` both write.
+pub fn write_films(
+    path: &Path,
+    film: &crate::Film,
+    components: &[crate::Film],
+    discarded: &crate::many_lights::Discards,
+    metadata: &[(&str, String)],
+) -> Result<Image, OutputError> {
+    let image = film.image();
+    let layers: Vec<(&str, Image)> = beamlight_trace::components::Component::ALL
+        .iter()
+        .zip(components)
+        .map(|(c, f)| (c.name(), f.image()))
+        .collect();
+    let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (*n, i)).collect();
+    let mut header = vec![
+        ("beamlight.passes", film.samples.to_string()),
+        ("beamlight.spp", film.samples.to_string()),
+        ("beamlight.rejected_samples", film.rejected.to_string()),
+        ("beamlight.discarded_estimates", discarded.to_string()),
+    ];
+    header.extend(metadata.iter().cloned());
+    write_exr_layers(path, &image, &named, &header)?;
+    Ok(image)
+}
+
 /// Writes a float32 OpenEXR whose first layer is the beauty image and whose further layers are
 /// `layers` (each R, G, B), with `metadata` as string header attributes of the beauty layer.
 /// With extra layers the file is multi-part and the beauty part is named "beauty".
