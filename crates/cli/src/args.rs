@@ -1,11 +1,7 @@
 //! The command line's words: clap types for every command and their parsers.
 use crate::runs;
 use anyhow::Result;
-use beamlight_render::{
-    Method,
-    components::Component,
-    many_lights,
-};
+use beamlight_render::{Method, backend::Backend, components::Component, many_lights};
 use beamlight_trace::vbl;
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -107,11 +103,26 @@ impl ValueEnum for MethodArg {
     }
 }
 
-#[derive(Clone, Copy, ValueEnum, PartialEq)]
-pub(crate) enum BackendArg {
-    Auto,
-    Gpu,
-    Cpu,
+/// `--backend`: the render crate's [`Backend`]s.
+#[derive(Clone, Copy)]
+pub(crate) struct BackendArg(pub(crate) Backend);
+
+impl ValueEnum for BackendArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[
+            BackendArg(Backend::Auto),
+            BackendArg(Backend::Gpu),
+            BackendArg(Backend::Cpu),
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(match self.0 {
+            Backend::Auto => "auto",
+            Backend::Gpu => "gpu",
+            Backend::Cpu => "cpu",
+        }))
+    }
 }
 
 #[derive(clap::Args)]

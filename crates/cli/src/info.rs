@@ -1,7 +1,7 @@
 //! `beamlight info`: what a scene holds and what each method would do with it.
 use crate::print_stdout;
 use anyhow::Result;
-use beamlight_gpu::Gpu;
+use beamlight_render::Method;
 use beamlight_render::components::{Component, SceneFeatures};
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
 use beamlight_trace::TraceScene;
@@ -124,41 +124,31 @@ pub(crate) fn info(path: &Path) -> Result<()> {
         .camera_medium
         .map_or("vacuum".to_string(), |i| s.media[i as usize].name.clone());
     outln!(out, "camera in   {cam_medium}");
-    let adapters = beamlight_gpu::device::adapters();
+    // What `--backend auto` does for each method: the same decision a render makes.
+    use beamlight_render::backend::{AutoChoice, adapter_lines, auto_choice};
+    let mut on_gpu: Vec<&str> = Vec::new();
+    let mut on_cpu: Vec<String> = Vec::new();
+    let mut adapter = None;
+    for m in Method::ALL {
+        match auto_choice(m) {
+            AutoChoice::Gpu(name) => {
+                on_gpu.push(m.name());
+                adapter = Some(name);
+            }
+            AutoChoice::Cpu(why) => on_cpu.push(format!("{} ({why})", m.name())),
+        }
+    }
+    let gpu_part = match adapter {
+        Some(name) => format!("the gathers of {} on {name}; ", on_gpu.join(", ")),
+        None => String::new(),
+    };
     outln!(
         out,
-        "backend     {}",
-        match adapters.first() {
-            None => "cpu: no Vulkan adapter".to_string(),
-            Some(a) if beamlight_gpu::device::is_cpu_adapter(a) => format!(
-                "`auto` runs the gathers of `vbl` on {} (a CPU adapter, faster for them than the CPU estimators) and keeps those of `vrl` on the CPU",
-                a.name
-            ),
-            Some(a) => format!("`auto` runs the virtual-light gathers on {}", a.name),
-        }
+        "backend     `--backend auto`: {gpu_part}on the CPU: {}",
+        on_cpu.join("; ")
     );
-    if adapters.is_empty() {
-        outln!(out, "gpu         none (no Vulkan adapter: the gathers run on the CPU)");
-    }
-    for (i, a) in adapters.iter().enumerate() {
-        outln!(out, "gpu {i}       {}", beamlight_gpu::device::describe(a));
-    }
-    if !adapters.is_empty() {
-        match Gpu::open() {
-            Ok(g) => {
-                let l = &g.limits;
-                outln!(
-                    out,
-                    "gpu limits  storage binding {} MiB, buffer {} MiB, {} workgroups per dimension, {} storage buffers per stage, timestamps {}",
-                    l.max_storage_buffer_binding_size >> 20,
-                    l.max_buffer_size >> 20,
-                    l.max_compute_workgroups_per_dimension,
-                    l.max_storage_buffers_per_shader_stage,
-                    if g.timestamps { "yes" } else { "no" }
-                );
-            }
-            Err(e) => outln!(out, "gpu limits  unavailable: {e}"),
-        }
+    for line in adapter_lines() {
+        outln!(out, "{line}");
     }
     print_stdout(&out)
 }

@@ -11,20 +11,20 @@ macro_rules! outln {
 }
 
 mod args;
-mod backend;
 mod info;
 mod render;
 mod report;
 mod tools;
+mod vulkan;
 
 use anyhow::{Context, Result, bail};
 use args::*;
-use backend::quiet_vulkan_loader;
 use clap::Parser;
 use info::info;
 use render::render;
 use std::{path::Path, process::ExitCode, time::Instant};
 use tools::{compare_cmd, export_mitsuba, sheet_cmd};
+use vulkan::quiet_vulkan_loader;
 
 /// Runs the command line; errors are printed as one clear message and give exit code 1.
 pub fn main() -> ExitCode {

@@ -17,7 +17,6 @@ use std::{
 };
 
 use crate::args::*;
-use crate::backend::choose_backend;
 use crate::report::{print_stats, stats_json};
 
 pub(crate) const DEFAULT_PASSES: u64 = 64;
@@ -109,7 +108,8 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         );
     }
     let opening = Instant::now();
-    let (gpu, backend) = choose_backend(args.backend, method, &ts)?;
+    let (gpu, backend) =
+        beamlight_render::backend::open(args.backend.0, method, &ts.scene).map_err(anyhow::Error::msg)?;
     let gpu_time = opening.elapsed();
     if args.stats {
         eprintln!(

@@ -4,6 +4,7 @@
 //! Data flows one way: scene → tracing → estimators → accumulators ([`film`]) → image ([`output`]).
 pub mod accum;
 pub mod auto;
+pub mod backend;
 pub mod combine;
 pub mod compare;
 pub mod components;
