@@ -2,7 +2,6 @@
 use crate::runs;
 use anyhow::Result;
 use beamlight_render::{Method, backend::Backend, components::Component, many_lights};
-use beamlight_trace::vbl;
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -219,11 +218,11 @@ pub(crate) struct RenderArgs {
     pub(crate) write_every: Option<f64>,
     /// `vbl`: directions integrating each virtual spherical light's solid angle (paper eq. 9;
     /// the paper uses up to 100).
-    #[arg(long, default_value_t = vbl::DEFAULT_DIRECTIONS, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(long, default_value_t = beamlight_render::VblSettings::default().directions, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub(crate) vsl_directions: u32,
     /// `vbl`: most vertices of the piecewise-linear angular PDFs (fewer for segments that
     /// subtend small angles).
-    #[arg(long, default_value_t = vbl::DEFAULT_PDF_VERTICES, value_parser = clap::value_parser!(u32).range(2..=64))]
+    #[arg(long, default_value_t = beamlight_render::VblSettings::default().pdf_vertices, value_parser = clap::value_parser!(u32).range(2..=64))]
     pub(crate) pdf_vertices: u32,
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]

@@ -2,9 +2,9 @@
 use crate::print_stdout;
 use anyhow::Result;
 use beamlight_render::Method;
+use beamlight_render::TraceScene;
 use beamlight_render::components::{Component, SceneFeatures};
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
-use beamlight_trace::TraceScene;
 use std::path::Path;
 
 pub(crate) fn info(path: &Path) -> Result<()> {

@@ -9,8 +9,8 @@ use beamlight_render::{
     many_lights::{Discards, ManyLightSettings},
     output,
 };
+use beamlight_render::{PathTracerSettings, TraceScene, VblSettings};
 use beamlight_scene::load::load_scene;
-use beamlight_trace::{TraceScene, pt::PathTracerSettings, vbl::VblSettings};
 use std::{
     io::IsTerminal,
     time::{Duration, Instant},

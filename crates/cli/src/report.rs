@@ -1,11 +1,10 @@
 //! What a render reports about its time and its discards: `--stats` and `--stats-json`.
-use beamlight_gpu::gather::GatherKernel;
 use beamlight_render::{
     Method, RenderOptions,
     components::{Component, SceneFeatures},
     many_lights::{self, Discards, PassTimes},
 };
-use beamlight_trace::TraceScene;
+use beamlight_render::{TraceScene, many_lights::GatherKernel};
 use std::time::Duration;
 
 /// The `--stats` timeline summary: per pass, how long the CPU and the GPU were busy and how

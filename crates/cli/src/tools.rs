@@ -1,9 +1,9 @@
 //! The commands around a render: `sheet`, `compare` and `export-mitsuba`.
 use crate::{check_output_path, mitsuba, print_stdout};
 use anyhow::{Result, bail};
+use beamlight_render::TraceScene;
 use beamlight_render::{compare, output};
 use beamlight_scene::load::load_scene;
-use beamlight_trace::TraceScene;
 use std::path::{Path, PathBuf};
 
 pub(crate) fn sheet_cmd(

@@ -13,7 +13,7 @@ use crate::{
 };
 use beamlight_gpu::{
     GpuBackend, GpuError,
-    gather::{GatherInputs, GatherKernel, KERNELS, PendingGathers},
+    gather::{GatherInputs, KERNELS, PendingGathers},
 };
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
@@ -267,6 +267,9 @@ pub fn admit(v: Rgb, discarded: &mut u64) -> Rgb {
     *discarded += 1;
     if v.is_finite() { v.max(Rgb::ZERO) } else { Rgb::ZERO }
 }
+
+/// The GPU's gather kernels, by which [`PassTimes::kernels`] is indexed.
+pub use beamlight_gpu::gather::GatherKernel;
 
 /// The component each of [`gpu_kernels`]'s kernels computes, in its order.
 pub const KERNEL_COMPONENTS: [Component; 4] = [Component::Lss, Component::Lsm, Component::Lms, Component::Lmm];
