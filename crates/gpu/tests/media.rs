@@ -27,13 +27,15 @@ use beamlight_gpu::{
 };
 use beamlight_scene::{
     Rgb, Scene,
-    bsdf::{Bsdf, Material},
     camera::Camera,
     medium::{DensityGrid, Medium},
     rng::Sampler,
-    scene::{MediumId, MediumInterface, RenderSettings, Triangle},
+    scene::{MediumId, MediumInterface, RenderSettings},
 };
-use beamlight_testkit::gltf_writer::shapes;
+use beamlight_testkit::{
+    gltf_writer::shapes,
+    scenes::{add_mesh, lambert, material},
+};
 use beamlight_trace::{TraceScene, lights::LightSample};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, UVec3, Vec3};
@@ -79,16 +81,6 @@ const SPHERE_R: f32 = 0.5;
 const BLOCK_LO: Vec3 = Vec3::new(0.95, -1.3, -1.2);
 const BLOCK_HI: Vec3 = Vec3::new(1.4, 0.5, -0.1);
 
-fn material(name: &str, bsdf: Option<Bsdf>) -> Material {
-    Material {
-        name: name.into(),
-        bsdf,
-        emission: Rgb::ZERO,
-        double_sided: false,
-        base_color_texture: None,
-    }
-}
-
 fn medium(name: &str, sigma_s: Rgb, sigma_a: Rgb, density: Option<DensityGrid>) -> Medium {
     Medium {
         name: name.into(),
@@ -99,34 +91,13 @@ fn medium(name: &str, sigma_s: Rgb, sigma_a: Rgb, density: Option<DensityGrid>) 
     }
 }
 
-fn add_mesh(scene: &mut Scene, mesh: (Vec<Vec3>, Vec<u32>), material: u32, interface: Option<MediumInterface>) {
-    let (p, idx) = mesh;
-    let mesh_index = scene.meshes.len() as u32;
-    scene.meshes.push(format!("mesh{mesh_index}"));
-    for t in idx.chunks_exact(3) {
-        scene.triangles.push(Triangle {
-            p: [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]],
-            n: None,
-            uv: None,
-            material,
-            interface,
-            mesh: mesh_index,
-        });
-    }
-}
-
 /// The opaque room (normals inwards) and block; the camera in a corner.
 fn room() -> Scene {
     let mut s = Scene {
         source: "media test".into(),
         triangles: Vec::new(),
         meshes: Vec::new(),
-        materials: vec![material(
-            "wall",
-            Some(Bsdf::Lambert {
-                albedo: Rgb::splat(0.5),
-            }),
-        )],
+        materials: vec![lambert("wall", 0.5)],
         textures: Vec::new(),
         media: Vec::new(),
         global_medium: None,
@@ -174,7 +145,7 @@ fn lumpy(res: UVec3, phase: f32) -> Vec<f32> {
 /// (medium 1), both bounded by null interfaces; heterogeneous media with `grids`.
 fn nested_regions(grids: bool) -> Scene {
     let mut s = room();
-    s.materials.push(material("<medium boundary>", None));
+    s.materials.push(material("<medium boundary>", None, Rgb::ZERO, false));
     let boundary = s.materials.len() as u32 - 1;
     let (grid0, grid1) = if grids {
         let r0 = UVec3::new(21, 18, 27);

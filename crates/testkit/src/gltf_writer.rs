@@ -17,8 +17,8 @@
 //! b.camera_look_at("Camera", Vec3::new(0.0, 1.0, 3.0), Vec3::Y, Vec3::Y, 0.7, None);
 //! b.write_gltf(std::path::Path::new("floor.gltf")).unwrap();
 //! ```
-use beamlight_scene::texture::Wrap;
 use base64::Engine as _;
+use beamlight_scene::texture::Wrap;
 use glam::{Mat3, Quat, Vec2, Vec3};
 use serde_json::{Map, Value, json};
 use std::path::Path;
