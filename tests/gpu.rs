@@ -168,7 +168,7 @@ fn explain(
     let Some((j, share)) = dominant else {
         return out;
     };
-    let point_light = slot % 2 == 0;
+    let point_light = slot.is_multiple_of(2);
     let geometry = match (seg, point_light) {
         (None, true) => format!("distance {:.3e}", p.distance(v(lights.vpls[j].pos))),
         (None, false) => {

@@ -254,7 +254,7 @@ pub fn pt_components_with_errors_using(
     spp: u32,
     seed: u32,
 ) -> ([DVec3; 7], [DVec3; 7]) {
-    assert!(spp % 16 == 0, "spp must split into 16 batches");
+    assert!(spp.is_multiple_of(16), "spp must split into 16 batches");
     let mut batches = BatchMeans::default();
     let mut sum = [DVec3::ZERO; 7];
     for batch in 0..16 {

@@ -176,14 +176,14 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
         std::hint::black_box(total);
         report(
             &format!("gathers {}", k.name()),
-            (inputs.records(k) * inputs.lights(k)) as f64,
+            (k.records(&inputs) * k.lights(&inputs)) as f64,
             g.kernel_seconds[k as usize],
             cpu,
         );
         if GatherKernel::BEAMS.contains(&k) {
             report_records(
-                &format!("  {} records, all {} lights", k.name(), inputs.lights(k)),
-                inputs.records(k) as f64,
+                &format!("  {} records, all {} lights", k.name(), k.lights(&inputs)),
+                k.records(&inputs) as f64,
                 g.kernel_seconds[k as usize],
                 cpu,
             );
@@ -256,7 +256,7 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
         std::hint::black_box(total);
         report_records(
             &format!("  {} records, {samples} drawn", k.name()),
-            inputs.records(k) as f64,
+            k.records(&inputs) as f64,
             g.kernel_seconds[k as usize],
             cpu,
         );

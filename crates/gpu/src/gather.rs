@@ -8,11 +8,11 @@ use crate::{
     layout::{self, ANGULAR_PDF_VBL, ANGULAR_PDF_VRL, BSDF_LAMBERT, BSDF_NONE, BSDF_PHONG, GatherParams},
 };
 use beamlight_scene::{Rgb, Scene, bsdf};
+pub use beamlight_trace::gather::GatherInputs;
 use beamlight_trace::{
     camera_paths::{MediaSegment, ShadingPoint},
-    light_paths::{LightSegment, SurfaceVertex},
     light_tree::LightTreeNode,
-    vbl::{AngularPdf, VblSettings},
+    vbl::AngularPdf,
 };
 use glam::Vec2;
 
@@ -134,52 +134,22 @@ pub fn resolve_bsdf(scene: &Scene, material: u32, uv: Vec2) -> layout::Bsdf {
     }
 }
 
-/// One pass's records, as the CPU traced them.
-#[derive(Clone, Copy)]
-pub struct GatherInputs<'a> {
-    pub shading_points: &'a [ShadingPoint],
-    pub media_segments: &'a [MediaSegment],
-    pub vpls: &'a [SurfaceVertex],
-    pub vrls: &'a [LightSegment],
-    /// Light paths traced (the M that every sum is divided by).
-    pub paths: u32,
-    pub pair_seed: u32,
-    pub pass: u32,
-    /// Minimum distance of the 1/d² falloff (0: unclamped).
-    pub clamp: f32,
-    /// The pass's squared VBL/VSL radius (the `vbl` kernels).
-    pub radius2: f32,
-    /// The VBL/VSL estimators' settings (the `vbl` kernels).
-    pub vbl: VblSettings,
-    /// Lights each record draws per kernel from the trees below (`vbl` kernels); 0 gathers
-    /// every light.
-    pub light_samples: u32,
-    /// The same for the VBL → camera segment gather (`Lmm`), which may draw more.
-    pub media_light_samples: u32,
-    /// The pass's light trees over `vpls` and `vrls` (empty without light selection).
-    pub vsl_tree: &'a [LightTreeNode],
-    pub vbl_tree: &'a [LightTreeNode],
-    /// Fault injection for the discard counters' tests (`ManyLightSettings::inject_nan` in
-    /// the render crate): each kernel's first record of the pass estimates NaN.
-    pub inject_nan: bool,
-}
-
-impl GatherInputs<'_> {
-    /// Gather records kernel `k` runs over.
-    pub fn records(&self, k: GatherKernel) -> usize {
-        if k.on_surfaces() {
-            self.shading_points.len()
+impl GatherKernel {
+    /// Gather records this kernel runs over in `inputs`.
+    pub fn records(self, inputs: &GatherInputs) -> usize {
+        if self.on_surfaces() {
+            inputs.shading_points.len()
         } else {
-            self.media_segments.len()
+            inputs.media_segments.len()
         }
     }
 
-    /// Virtual lights kernel `k` reads.
-    pub fn lights(&self, k: GatherKernel) -> usize {
-        if k.reads_vpls() {
-            self.vpls.len()
+    /// Virtual lights this kernel reads in `inputs`.
+    pub fn lights(self, inputs: &GatherInputs) -> usize {
+        if self.reads_vpls() {
+            inputs.vpls.len()
         } else {
-            self.vrls.len()
+            inputs.vrls.len()
         }
     }
 }
@@ -280,7 +250,7 @@ impl Gathers {
         run: [bool; KERNELS],
     ) -> Result<PendingGathers, GpuError> {
         let wanted = |k: GatherKernel| {
-            run[k as usize] && self.kernels[k as usize].is_some() && inputs.records(k) > 0 && inputs.lights(k) > 0
+            run[k as usize] && self.kernels[k as usize].is_some() && k.records(inputs) > 0 && k.lights(inputs) > 0
         };
         // Upload only what a dispatched kernel reads.
         let any = |f: fn(GatherKernel) -> bool| GatherKernel::ALL.iter().any(|&k| wanted(k) && f(k));
@@ -329,7 +299,7 @@ impl Gathers {
         let mut outputs: Vec<(GatherKernel, wgpu::Buffer, usize)> = Vec::new();
         let mut timed = Vec::new();
         for k in GatherKernel::ALL.into_iter().filter(|&k| wanted(k)) {
-            let (records, lights) = (inputs.records(k), inputs.lights(k));
+            let (records, lights) = (k.records(inputs), k.lights(inputs));
             let samples = if k == GatherKernel::VblMedia {
                 inputs.media_light_samples
             } else {

@@ -9,7 +9,7 @@
 //! pass's radius from the schedule of eq. 11 ([`crate::radius`]).
 use crate::{
     radius::paths_squared_radius,
-    record_gathers::{CausticLookup, Estimators, PassGathers},
+    record_gathers::{CausticLookup, PassGathers},
 };
 use beamlight_gpu::{
     GpuBackend, GpuError,
@@ -387,7 +387,6 @@ pub fn start_pass(
         ..Default::default()
     };
     let lights = trace_light_paths(ts, &light_tracer, settings.light_paths_per_pass, seed, pass);
-    let m = lights.paths.max(1) as f32;
     let r2 = pass_squared_radius(settings.radius, settings, pass);
     // The caustics' own light paths, one set for the photons and one for the beams (their
     // VPLs and VRLs are not used), each with its own count M in the estimates and eq. 11.
@@ -441,29 +440,30 @@ pub fn start_pass(
     };
     let kernels = gpu_kernels(settings.lights);
     let gpu = gpu.filter(|_| gpu_has_kernels(settings.lights));
-    let pair_seed = streams::pair_seed(seed);
+    // What the virtual-light gathers read, on the GPU or on the CPU.
+    let inputs = GatherInputs {
+        shading_points: &points,
+        media_segments: &segments,
+        vpls: &lights.vpls,
+        vrls: &lights.vrls,
+        paths: lights.paths,
+        pair_seed: streams::pair_seed(seed),
+        pass,
+        clamp: settings.clamp,
+        radius2: r2,
+        vbl: settings.vbl,
+        light_samples: selection.as_ref().map_or(0, |s| s.k),
+        media_light_samples: selection.as_ref().map_or(0, |s| s.k_media),
+        inject_nan: settings.inject_nan,
+        vsl_tree: selection.as_ref().map_or(&[], |s| &s.vsls.nodes),
+        vbl_tree: selection.as_ref().map_or(&[], |s| &s.vbls.nodes),
+    };
     let pending = match gpu {
         Some(g) => Some(g.gathers.submit(
             &g.gpu,
             &g.scene,
             &ts.scene,
-            &GatherInputs {
-                shading_points: &points,
-                media_segments: &segments,
-                vpls: &lights.vpls,
-                vrls: &lights.vrls,
-                paths: lights.paths,
-                pair_seed,
-                pass,
-                clamp: settings.clamp,
-                radius2: r2,
-                vbl: settings.vbl,
-                light_samples: selection.as_ref().map_or(0, |s| s.k),
-                media_light_samples: selection.as_ref().map_or(0, |s| s.k_media),
-                inject_nan: settings.inject_nan,
-                vsl_tree: selection.as_ref().map_or(&[], |s| &s.vsls.nodes),
-                vbl_tree: selection.as_ref().map_or(&[], |s| &s.vbls.nodes),
-            },
+            &inputs,
             std::array::from_fn(|k| {
                 let kernel = GatherKernel::ALL[k];
                 let Some(i) = kernels.iter().position(|&x| x == kernel) else {
@@ -511,32 +511,22 @@ pub fn start_pass(
     // light set divided by its path count M is the per-pass estimate.
     let gathers = PassGathers {
         ts,
+        inputs: &inputs,
         seed,
-        pass,
-        pair_seed,
         computed,
         virtual_lights: pending.is_none(),
         selection: selection.as_ref(),
-        vpls: &lights.vpls,
-        vrls: &lights.vrls,
-        m,
-        estimators: Estimators {
-            beams: beams_on,
-            r2,
-            vbl: &settings.vbl,
-            clamp: settings.clamp,
-        },
-        inject_nan: settings.inject_nan,
+        beams: beams_on,
     };
     let photon_lookup = |_: usize, sp: &ShadingPoint| photons.radiance(ts, sp) / m_photons;
     let beam_lookup = |i: usize, seg: &MediaSegment| beams.radiance(ts, seg, &mut stream(1, i)) / m_beams;
     let at_points = gathers.estimate(
-        &points,
+        inputs.shading_points,
         &point_credits,
         (!photons.is_empty()).then_some(&photon_lookup as CausticLookup<ShadingPoint>),
     );
     let along_segments = gathers.estimate(
-        &segments,
+        inputs.media_segments,
         &segment_credits,
         (!beams.is_empty()).then_some(&beam_lookup as CausticLookup<MediaSegment>),
     );

@@ -9,6 +9,7 @@ use beamlight_trace::{
     camera_paths::{MediaSegment, ShadingPoint},
     components::{Component, gathers_in_medium},
     direct,
+    gather::GatherInputs,
     light_paths::{LightSegment, SurfaceVertex},
     light_tree::Receiver,
     streams::GatherKind,
@@ -22,10 +23,10 @@ const N: usize = Component::ALL.len();
 /// How the pass's virtual lights are evaluated: beams and spheres of squared radius `r2`
 /// (`vbl`), or rays and points with the inverse-square falloff clamped at `clamp` (`vrl`).
 pub struct Estimators<'a> {
-    pub beams: bool,
-    pub r2: f32,
-    pub vbl: &'a VblSettings,
-    pub clamp: f32,
+    beams: bool,
+    r2: f32,
+    vbl: &'a VblSettings,
+    clamp: f32,
 }
 
 /// A kind of gather record, as the CPU estimators see it.
@@ -140,21 +141,17 @@ pub type CausticLookup<'a, R> = &'a (dyn Fn(usize, &R) -> Rgb + Sync);
 /// What a pass's CPU gathers share.
 pub struct PassGathers<'a> {
     pub ts: &'a TraceScene,
+    /// The records, the virtual lights and how they are gathered: what the GPU kernels read.
+    pub inputs: &'a GatherInputs<'a>,
+    /// The render's seed (direct light's streams at walk records).
     pub seed: u32,
-    pub pass: u32,
-    pub pair_seed: u32,
     /// The components the pass computes.
     pub computed: [bool; N],
     /// The virtual-light gathers run here (no GPU takes them).
     pub virtual_lights: bool,
     pub selection: Option<&'a Selection>,
-    pub vpls: &'a [SurfaceVertex],
-    pub vrls: &'a [LightSegment],
-    /// The gathers' light path count M.
-    pub m: f32,
-    pub estimators: Estimators<'a>,
-    /// [`crate::many_lights::ManyLightSettings::inject_nan`].
-    pub inject_nan: bool,
+    /// Virtual beam and spherical lights (`vbl`), else rays and points.
+    pub beams: bool,
 }
 
 impl RecordEstimate {
@@ -204,7 +201,7 @@ impl PassGathers<'_> {
                 if let Some(k) = credit.map(|k| k as usize).filter(|&k| self.computed[k]) {
                     // A walk record's direct light; the camera's records' is part of
                     // `direct_light`.
-                    let mut sd = direct_stream(self.seed, self.pass, R::DIRECT_STREAM, i);
+                    let mut sd = direct_stream(self.seed, self.inputs.pass, R::DIRECT_STREAM, i);
                     let v = timed(&mut e.seconds[k], || record.direct(ts, &mut sd));
                     e.add(k, v);
                 }
@@ -238,10 +235,16 @@ impl PassGathers<'_> {
         rx: Option<&(&Selection, Receiver)>,
         set: LightSet,
     ) {
-        let (ts, est) = (self.ts, &self.estimators);
+        let (ts, inputs) = (self.ts, self.inputs);
+        let est = Estimators {
+            beams: self.beams,
+            r2: inputs.radius2,
+            vbl: &inputs.vbl,
+            clamp: inputs.clamp,
+        };
         let ((component, kind), lights) = match set {
-            LightSet::Points => (R::FROM_POINTS, self.vpls.len()),
-            LightSet::Rays => (R::FROM_RAYS, self.vrls.len()),
+            LightSet::Points => (R::FROM_POINTS, inputs.vpls.len()),
+            LightSet::Rays => (R::FROM_RAYS, inputs.vrls.len()),
         };
         let drawn = rx.map(|(sel, rx)| {
             let tree = match set {
@@ -255,21 +258,21 @@ impl PassGathers<'_> {
             drawn,
             (&mut e.seconds[own], &mut e.discarded[own]),
             lights,
-            (kind, i, self.pair_seed, self.pass),
+            (kind, i, inputs.pair_seed, inputs.pass),
             &|j, s| match set {
-                LightSet::Points => record.point_light(ts, &self.vpls[j], est, s),
-                LightSet::Rays => record.ray_light(ts, &self.vrls[j], est, s),
+                LightSet::Points => record.point_light(ts, &inputs.vpls[j], &est, s),
+                LightSet::Rays => record.ray_light(ts, &inputs.vrls[j], &est, s),
             },
         );
         e.add(
             credited(component, credit) as usize,
-            injected(v / self.m, self.poison(i, lights)),
+            injected(v / inputs.paths.max(1) as f32, self.poison(i, lights)),
         );
     }
 
     /// Fault injection (`inject_nan`): the gather over a set of `lights` poisons its first
     /// record, as the GPU's does.
     fn poison(&self, i: usize, lights: usize) -> bool {
-        self.inject_nan && i == 0 && lights > 0
+        self.inputs.inject_nan && i == 0 && lights > 0
     }
 }
