@@ -7,7 +7,6 @@
 //!
 //! `cargo run --release --example furnace_deficits` (1536 seeds at 12²: about a minute).
 #[path = "../tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 use beamlight_render::{Budget, Method, RenderOptions, many_lights::ManyLightSettings, render};
 use beamlight_scene::Rgb;
