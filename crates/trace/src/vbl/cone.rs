@@ -1,0 +1,452 @@
+//! A virtual spherical light seen from a receiver: the cone of gather directions that pass
+//! within R of its centre, the receiver's and the light's lobes over it, and the cone's
+//! numerical integration with the beam radiance estimate's collection point (paper eq. 9 and
+//! issue 19's correction, see the parent module).
+use crate::{
+    TraceScene,
+    camera_paths::{MediaSegment, ShadingPoint},
+    light_paths::SurfaceVertex,
+};
+use beamlight_scene::{
+    Rgb,
+    bsdf::Bsdf,
+    frame::Frame,
+    phase::HenyeyGreenstein,
+    rng::Sampler,
+    sampling::{self},
+};
+use glam::{Vec2, Vec3};
+
+/// The cone of gather directions from a receiver whose rays pass within R of a VSL centre.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Cone {
+    pub(super) axis: Vec3,
+    pub(super) cos: f32,
+    pub(super) sin: f32,
+    /// 1 − cos θmax, formed without cancellation.
+    pub(super) one_minus_cos: f32,
+    /// Ω / (πR²): the solid angle times the kernel (1/d² for R = 0).
+    pub(super) weight: f32,
+}
+
+/// The VSL of squared radius `r2` centred at `centre`, seen from `from`; `fallback` is the
+/// hemisphere's axis when the two points coincide. `None` when there is nothing to gather
+/// (coincident points and R = 0).
+pub(super) fn vsl_cone(from: Vec3, centre: Vec3, r2: f32, fallback: Vec3) -> Option<Cone> {
+    let to = centre - from;
+    let d2 = to.length_squared();
+    let d = d2.sqrt();
+    let axis = if d > 0.0 && (to / d).is_finite() {
+        to / d
+    } else {
+        fallback
+    };
+    let cone = if d2 > r2 {
+        // sin²θmax = R²/d²; 1 − cos = sin²/(1 + cos) keeps tiny cones exact.
+        let sin2 = r2 / d2;
+        let cos = ((d2 - r2) / d2).max(0.0).sqrt();
+        Cone {
+            axis,
+            cos,
+            sin: sin2.sqrt(),
+            one_minus_cos: sin2 / (1.0 + cos),
+            weight: 2.0 / (d2 * (1.0 + cos)),
+        }
+    } else {
+        // Inside the sphere: the hemisphere facing the centre.
+        Cone {
+            axis,
+            cos: 0.0,
+            sin: 1.0,
+            one_minus_cos: 1.0,
+            weight: 2.0 / r2,
+        }
+    };
+    (cone.weight.is_finite() && cone.weight > 0.0 && axis.is_finite()).then_some(cone)
+}
+
+/// The direction within `cone` closest to the unit direction `a`.
+pub(super) fn closest_in_cone(cone: &Cone, a: Vec3) -> Vec3 {
+    let ca = a.dot(cone.axis);
+    if ca >= cone.cos {
+        return a;
+    }
+    // Rotate the axis towards `a` by the cone's half-angle.
+    let perp = a - cone.axis * ca;
+    let len = perp.length();
+    let perp = if len > 1e-6 {
+        perp / len
+    } else {
+        // `a` opposite the axis: every rim direction is equally close.
+        Frame::from_normal(cone.axis).s
+    };
+    (cone.axis * cone.cos + perp * cone.sin).normalize()
+}
+
+/// Angle (radians) over which a surface's f·cos changes appreciably: about 1/√n for a Phong
+/// lobe of exponent n (cosⁿα ≈ exp(−nα²/2)), a radian for the cosine of a diffuse surface.
+pub(super) fn bsdf_scale(b: &Bsdf) -> f32 {
+    match *b {
+        Bsdf::Phong { specular, exponent, .. } if specular.max_element() > 0.0 => (exponent + 1.0).sqrt().recip(),
+        _ => 1.0,
+    }
+}
+
+/// The same for a Henyey–Greenstein lobe: its forward peak has a half-width of about
+/// (1 − |g|)/√|g| radians; (1 − |g|) is a little narrower, so the count below errs upwards.
+pub(super) fn hg_scale(g: f32) -> f32 {
+    (1.0 - g.abs()).max(1e-4)
+}
+
+/// Directions for integrating over `cone` an integrand that varies on the angular scale
+/// `scale`: the share of `max` given by the cone's solid angle relative to the scale's, at
+/// least 1. Any count gives an unbiased estimate of the cone integral; a cone much narrower
+/// than the integrand's features sees a nearly constant integrand, so one direction has
+/// almost no variance there, while a VSL that fills a lobe gets all `max` directions. This is
+/// what keeps VSLs affordable: in most pairs the sphere is far away and its cone tiny.
+pub(super) fn cone_directions(cone: &Cone, max: u32, scale: f32) -> u32 {
+    // Half-angle² ≈ 2 (1 − cos θmax) for small cones (exact enough to choose a count).
+    let ratio = 2.0 * cone.one_minus_cos / (scale * scale);
+    let n = (max as f32 * ratio).ceil();
+    if n >= max as f32 { max.max(1) } else { (n as u32).max(1) }
+}
+
+/// The integrand's sharpest factor as a distribution over gather directions ω', for drawing
+/// some of a wide cone's directions from it (see [`integrate_cone`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Lobe {
+    /// A surface's f·cos over gather directions (see [`Surface`]).
+    Surface(Surface),
+    /// A Henyey–Greenstein lobe hg.eval(`a`, `sign`·ω').
+    Phase { hg: HenyeyGreenstein, a: Vec3, sign: f32 },
+}
+
+impl Lobe {
+    pub(super) fn sample(&self, u: Vec2, u_pick: f32) -> Option<Vec3> {
+        match *self {
+            Lobe::Surface(sf) => {
+                let bs = sf.bsdf.sample(sf.fixed, u, u_pick)?;
+                (!bs.is_delta).then(|| sf.frame.to_world(bs.wi) * sf.sign)
+            }
+            Lobe::Phase { hg, a, sign } => Some(hg.sample(a, u).wi * sign),
+        }
+    }
+
+    pub(super) fn pdf(&self, w: Vec3) -> f32 {
+        match *self {
+            Lobe::Surface(sf) => sf.bsdf.pdf(sf.fixed, sf.frame.to_local(w * sf.sign)),
+            Lobe::Phase { hg, a, sign } => hg.pdf(a, w * sign),
+        }
+    }
+}
+
+/// The HG lobe hg.eval(a, sign·ω') over gather directions, with its angular scale.
+pub(super) fn phase_lobe(hg: HenyeyGreenstein, a: Vec3, sign: f32) -> (Lobe, f32) {
+    (Lobe::Phase { hg, a, sign }, hg_scale(hg.g))
+}
+
+/// Of two lobes, the one with the smaller angular scale.
+pub(super) fn sharper(a: (Lobe, f32), b: (Lobe, f32)) -> (Lobe, f32) {
+    if b.1 < a.1 { b } else { a }
+}
+
+/// Random numbers for [`integrate_cone`]: the shifts of the uniform and the lobe lattices and
+/// the lobe-pick offset (five numbers, drawn whether or not they are used, so that a call
+/// always consumes the same count).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ConeRandom {
+    pub(super) uniform: Vec2,
+    pub(super) lobe: Vec2,
+    pub(super) pick: f32,
+}
+
+impl ConeRandom {
+    pub(super) fn draw(s: &mut Sampler) -> Self {
+        Self {
+            uniform: s.next_2d(),
+            lobe: s.next_2d(),
+            pick: s.next_1d(),
+        }
+    }
+}
+
+/// (1/(πR²)) ∫_cone g(ω') dω', the VSL integral of eq. 9, estimated with directions uniform in
+/// the cone (a shifted lattice) and, when the cone is wide compared with `lobe`'s angular
+/// `scale`, half of them drawn from `lobe` instead, combined by the balance heuristic
+/// (directions from the lobe that fall outside the cone count zero). Uniform directions alone
+/// would find a glossy lobe inside a wide cone with probability its solid angle over the
+/// cone's, which makes the rare hits the bright outliers of a pixel; narrow cones see nearly
+/// constant integrands and get few uniform directions ([`cone_directions`]).
+pub(super) fn integrate_cone(
+    cone: &Cone,
+    max: u32,
+    lobe: Option<(Lobe, f32)>,
+    rnd: ConeRandom,
+    mut g: impl FnMut(Vec3) -> Rgb,
+) -> Rgb {
+    let frame = Frame::from_normal(cone.axis);
+    let omega = std::f32::consts::TAU * cone.one_minus_cos;
+    let wide = lobe.filter(|&(_, scale)| 2.0 * cone.one_minus_cos >= scale * scale && omega > 0.0 && max >= 2);
+    let Some((lobe, _)) = wide else {
+        let n = cone_directions(cone, max, lobe.map_or(1.0, |(_, scale)| scale));
+        let mut sum = Rgb::ZERO;
+        for k in 0..n {
+            let local = sampling::uniform_cone_1mc(sampling::shifted_lattice(k, n, rnd.uniform), cone.one_minus_cos);
+            sum += g(frame.to_world(local).normalize());
+        }
+        return sum * (cone.weight / n as f32);
+    };
+    let (na, nb) = (max - max / 2, max / 2);
+    // Balance heuristic over all na + nb directions: each counts g / (na p_uniform + nb p_lobe).
+    let p_uniform = omega.recip();
+    let denominator = |w: Vec3| na as f32 * p_uniform + nb as f32 * lobe.pdf(w);
+    let mut sum = Rgb::ZERO;
+    for k in 0..na {
+        let local = sampling::uniform_cone_1mc(sampling::shifted_lattice(k, na, rnd.uniform), cone.one_minus_cos);
+        let w = frame.to_world(local).normalize();
+        sum += g(w) / denominator(w);
+    }
+    for k in 0..nb {
+        let pick = ((k as f32 + 0.5) / nb as f32 + rnd.pick).fract();
+        let Some(w) = lobe.sample(sampling::shifted_lattice(k, nb, rnd.lobe), pick) else {
+            continue;
+        };
+        if w.dot(cone.axis) >= cone.cos {
+            sum += g(w) / denominator(w);
+        }
+    }
+    // Ω / (πR²) over Ω: the kernel 1/(πR²).
+    sum * (cone.weight / omega)
+}
+
+/// Where along a gather ray a VSL's light is collected, and what that changes (issue 19). The
+/// beam radiance estimate behind every VSL gathers, along a ray o + tω', the photons within R
+/// of it: it integrates the photon density blurred over discs of radius R perpendicular to the
+/// ray, each photon counted at the ray's point nearest to it. Two things follow that the VSL's
+/// cone integral alone does not do, and whose neglect made the blur lose light at every R:
+///
+/// **Transmittance to the collection point.** The ray's light is attenuated up to where it is
+/// collected: the ray's crossing with the photon's sheet (below) at t, not the VSL centre at
+/// d = |centre − origin| ≥ t for a volume photon. The shadow ray to the centre gives T(d); the
+/// ray's is T(d)^(t/d), exact in a homogeneous medium and, in a heterogeneous one, the
+/// transmittance of the same mean extinction over the shorter distance (never above 1).
+/// Without it, an infinite homogeneous medium lost about (σt R)²/2 of `Lmm` (6 % at σt R =
+/// 0.35, by quadrature), and a receiver next to a lit wall (`Lms`) much more.
+///
+/// **Discs cut by a plane that hides the photons beyond it.** Where such a disc is cut, the
+/// blurred density falls below the density; renormalising by the uncut fraction of the disc (the
+/// boundary kernel of density estimation) makes the blur energy-preserving for a density that is
+/// smooth across the disc. Away from the plane the fraction is 1, so the estimator is unchanged
+/// there and converges as R → 0; the weight lies in [1, 2], since the disc centres a receiver's
+/// rays reach lie on the open side of the cut, so at least half of each disc survives.
+/// A photon is counted where the ray crosses its *sheet*: a surface VSL (a VPL) on its surface
+/// (normal `sheet`), a volume VSL (a point of a VBL) in the plane through it perpendicular to ω'
+/// (`sheet` = `None`). The disc projects onto the sheet as an ellipse, and the cut is a plane
+/// through the receiver `origin` with normal `plane`:
+/// * a surface receiver's tangent plane (`Lsm`, `Lss`): behind it nothing is visible from the
+///   receiver (the shadow ray starts on the viewer's side), so the discs near the start of every
+///   oblique ray lose their part behind the surface;
+/// * for a receiver in a medium, `plane` = `None`, the plane through it perpendicular to ω': the
+///   beam estimate counts only photons ahead of the receiver (t > 0), which for a sheet crossed
+///   within R of the receiver (`Lms` next to a wall) drops part of the ellipse. For a volume VSL
+///   (`Lmm`) the discs at t > 0 are never cut by that plane, and the weight is 1.
+///
+/// Where the ray leaves the medium through a wall, the discs are cut too, but the photons
+/// counted beyond the wall crossing (centre visibility) make up for it at a plane wall, as long
+/// as the receiver is farther from the wall than the discs reach: a disc cut short before the
+/// crossing is mirrored by one beyond it that holds the missing photons. Next to the wall the
+/// pairing breaks down: rays away from it lose their first discs, rays towards it gain discs
+/// beyond it, and the two differ by the transmittance and the phase functions along them
+/// (7.5 % of `Lmm` lost 0.1 above the wall at R = 0.35, by quadrature). The last receivers of
+/// every camera segment are next to the surface it ends on, so for `Lmm` the plane of that
+/// surface is a further cut ([`Wall`], from [`MediaSegment::end_normal`]), applied as a
+/// boundary kernel: nothing is collected beyond it, and a disc it cuts in front of it is
+/// renormalised by its uncut fraction, which is exact at a plane wall. A surface is a plane
+/// only near the point where the camera ray met it, so the cut is kept local: to receivers
+/// within 2R of that point ([`Wall::near`]) and to photons in front of the plane (those behind
+/// it belong to a surface that curves away). It is not applied to `Lms`: a VPL on a side wall
+/// next to the end wall then has its ellipse cut twice, and renormalising by the product of
+/// the two fractions made the furnace's `Lms` darker, not brighter (−3.4 % → −3.6 % at 2 R0).
+/// Not corrected: a receiver within R of a surface its ray does not end on (a camera ray
+/// grazing a wall, corners, where `Lms` and `Lss` lose most: in a flat slab whose side walls
+/// are out of view `Lms` is within 0.5 % at 2 R0, in the cube 3.4 % low).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Collection {
+    pub(super) origin: Vec3,
+    pub(super) centre: Vec3,
+    pub(super) plane: Option<Vec3>,
+    pub(super) sheet: Option<Vec3>,
+    pub(super) r: f32,
+    /// Transmittance × visibility from `origin` to `centre` (the shadow ray's).
+    pub(super) transmittance: Rgb,
+    /// The surface a medium receiver's camera segment ends on, when the receiver is near it.
+    pub(super) wall: Option<Wall>,
+}
+
+/// The plane of the surface a camera segment ends on: its end point and the unit normal facing
+/// back along the segment (see [`Collection`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Wall {
+    pub(super) point: Vec3,
+    pub(super) normal: Vec3,
+}
+
+impl Wall {
+    /// The end wall of `seg` for a receiver at `x` on it, if the receiver is within 2R of the
+    /// segment's end (farther receivers keep the mirror pairing of [`Collection`]).
+    pub(super) fn near(seg: &MediaSegment, x: Vec3, r: f32) -> Option<Self> {
+        let normal = Vec3::from(seg.end_normal);
+        let point = Vec3::from(seg.origin) + Vec3::from(seg.dir) * seg.length;
+        (normal != Vec3::ZERO && (x - point).length_squared() <= 4.0 * r * r).then_some(Self { point, normal })
+    }
+}
+
+impl Collection {
+    /// What the light gathered along `w` is multiplied by: the transmittance to the collection
+    /// point over the uncut fraction of the ellipse.
+    pub(super) fn weight(&self, w: Vec3) -> Rgb {
+        let to = self.centre - self.origin;
+        let n = self.plane.unwrap_or(w);
+        let m = self.sheet.unwrap_or(w);
+        let (wm, wn) = (w.dot(m), w.dot(n));
+        // The ray meets the sheet at t = to·m / (ω'·m), a signed height t (ω'·n) above the cut;
+        // the ellipse reaches R |n − (ω'·n)/(ω'·m) m| below it. Both are multiplied by |ω'·m|
+        // to stay finite at grazing sheets.
+        let height = to.dot(m) * wn * if wm < 0.0 { -1.0 } else { 1.0 };
+        let reach = self.r * (n * wm - m * wn).length();
+        // A volume photon is collected at the closest approach, a surface photon where the ray
+        // crosses its surface (never behind the receiver; beyond the centre at grazing rays).
+        let t = if self.sheet.is_some() && wm != 0.0 {
+            to.dot(m) / wm
+        } else {
+            to.dot(w)
+        };
+        let d = to.length();
+        let share = if d > 0.0 { t.max(0.0) / d } else { 1.0 };
+        let mut weight = uncut_weight(height, reach);
+        if let Some(wall) = self.wall {
+            let wall_n = w.dot(wall.normal);
+            // The collection point's height over the wall and the ellipse's reach across it,
+            // both multiplied by |ω'·m| as above (the point is origin + t ω').
+            let height = ((self.origin - wall.point).dot(wall.normal) * wm + to.dot(m) * wall_n)
+                * if wm < 0.0 { -1.0 } else { 1.0 };
+            let reach = self.r * (wall.normal * wm - m * wall_n).length();
+            // A photon behind the plane belongs to a surface that curves away from it: the
+            // plane says nothing about it. A sheet parallel to the wall is not cut by it.
+            let in_front = (self.centre - wall.point).dot(wall.normal) >= 0.0;
+            if in_front && reach > 1e-4 * self.r * wm.abs() {
+                if height < 0.0 {
+                    return Rgb::ZERO;
+                }
+                weight *= uncut_weight(height, reach);
+            }
+        }
+        transmittance_share(self.transmittance, share) * weight
+    }
+}
+
+/// T^share per channel (T ∈ [0, 1]; 0 stays 0, whatever the share). A NaN or negative T stays
+/// NaN, for `many_lights::admit` to count.
+#[inline]
+pub(super) fn transmittance_share(tr: Rgb, share: f32) -> Rgb {
+    let one = |t: f32| if t == 0.0 { 0.0 } else { (t.ln() * share).exp() };
+    Rgb::new(one(tr.x), one(tr.y), one(tr.z))
+}
+
+/// 1 / (the fraction of a disc on the far side of a chord `height` from its centre on the near
+/// side, `reach` being the disc's extent across the chord): 1 where the chord misses the disc
+/// (height ≥ reach, and reach = 0 for a cut parallel to the sheet), 2 through its centre.
+/// A negative height is only met where the integrand is zero (the sheet crossing behind the
+/// receiver) and is taken as 0, so that the weight stays within [1, 2].
+#[inline]
+pub(super) fn uncut_weight(height: f32, reach: f32) -> f32 {
+    if !(reach > 0.0) || height >= reach {
+        return 1.0;
+    }
+    let a = (height / reach).max(0.0);
+    let fraction = 0.5 + (a * (1.0 - a * a).sqrt() + a.asin()) * std::f32::consts::FRAC_1_PI;
+    fraction.recip()
+}
+
+/// A diffuse or glossy surface's f·cos as a function of the gather direction ω': at a camera
+/// shading point ([`Surface::receiver`]) ω' is the incident direction and the fixed one is
+/// towards the camera; at a VPL ([`Surface::light`]) the light leaves along −ω' and arrived
+/// from the fixed direction. Lambert and modified Phong are reciprocal, so one evaluation
+/// f(fixed, sign·ω') serves both, and sampling the BSDF about `fixed` samples either.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Surface {
+    pub(super) bsdf: Bsdf,
+    pub(super) frame: Frame,
+    /// The fixed direction, local to `frame`.
+    pub(super) fixed: Vec3,
+    pub(super) n: Vec3,
+    /// +1 at a receiver, −1 at a VPL: the surface's direction is `sign`·ω'.
+    pub(super) sign: f32,
+    /// The gather direction where f·cos peaks (the lobe's axis), for ω'_max.
+    pub(super) peak: Vec3,
+}
+
+impl Surface {
+    pub(super) fn new(ts: &TraceScene, material: u32, uv: Vec2, n: Vec3, fixed: Vec3, sign: f32) -> Option<Self> {
+        let bsdf = ts.scene.bsdf_at(material, Some(uv))?;
+        if bsdf.is_delta() {
+            return None;
+        }
+        let frame = Frame::from_normal(n);
+        Some(Self {
+            bsdf,
+            frame,
+            fixed: frame.to_local(fixed),
+            n,
+            sign,
+            peak: surface_peak(&bsdf, n, fixed) * sign,
+        })
+    }
+
+    pub(super) fn receiver(ts: &TraceScene, sp: &ShadingPoint) -> Option<Self> {
+        let n = Vec3::from(sp.normal);
+        Self::new(ts, sp.material, Vec2::from(sp.uv), n, Vec3::from(sp.wo), 1.0)
+    }
+
+    pub(super) fn light(ts: &TraceScene, vpl: &SurfaceVertex) -> Option<Self> {
+        let (n, uv) = (Vec3::from(vpl.normal), Vec2::new(vpl.u, vpl.v));
+        Self::new(ts, vpl.material, uv, n, Vec3::from(vpl.wi), -1.0)
+    }
+
+    #[inline]
+    pub(super) fn f_cos(&self, w: Vec3) -> Rgb {
+        let x = self.frame.to_local(w * self.sign);
+        self.bsdf.eval(self.fixed, x) * x.z.abs()
+    }
+
+    /// ω'_max within `cone`: the gather direction closest to the lobe's peak (the mirror
+    /// direction of the fixed one for Phong, the normal for Lambert), or closest to the normal
+    /// if that one lies below the horizon.
+    pub(super) fn max_dir(&self, cone: &Cone) -> Vec3 {
+        surface_max_dir(cone, self.peak, self.n * self.sign)
+    }
+
+    /// f·cos over gather directions as a lobe to draw directions from, with its angular scale.
+    pub(super) fn lobe(&self) -> (Lobe, f32) {
+        (Lobe::Surface(*self), bsdf_scale(&self.bsdf))
+    }
+}
+
+/// Where a scattering function at a surface peaks, as an outgoing direction on the side of
+/// `n`: the mirror direction of `fixed` for Phong (with a specular part), the normal otherwise.
+pub(super) fn surface_peak(bsdf: &Bsdf, n: Vec3, fixed: Vec3) -> Vec3 {
+    match bsdf {
+        Bsdf::Phong { specular, .. } if specular.max_element() > 0.0 => {
+            let r = n * (2.0 * n.dot(fixed)) - fixed;
+            r.try_normalize().unwrap_or(n)
+        }
+        _ => n,
+    }
+}
+
+/// ω'_max for a surface receiver (or, mirrored, a surface VSL): the direction in the cone
+/// closest to `peak`, or closest to the normal `n` if that one is below the horizon.
+pub(super) fn surface_max_dir(cone: &Cone, peak: Vec3, n: Vec3) -> Vec3 {
+    let w = closest_in_cone(cone, peak);
+    if w.dot(n) > 0.0 { w } else { closest_in_cone(cone, n) }
+}
