@@ -21,9 +21,9 @@ use base64::Engine as _;
 use beamlight_scene::texture::Wrap;
 use glam::{Mat3, Quat, Vec2, Vec3};
 use serde_json::{Map, Value, json};
+use std::path::Path;
 
 pub mod shapes;
-use std::path::Path;
 
 /// A metallic-roughness glTF material (metallic 0, roughness 1) and its extensions.
 #[derive(Clone, Debug, PartialEq)]
