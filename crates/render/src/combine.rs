@@ -1,6 +1,6 @@
 //! How `--method auto` combines its two estimators ([`crate::auto`] decides which runs when):
 //! both estimators' running sums per component ([`AutoSums`]), each one's error model
-//! ([`ComponentError`]: its variance, and the part of the two image means' difference their
+//! (`ComponentError`: its variance, and the part of the two image means' difference their
 //! noise does not explain, credited by its sign), and the combination of the two with one
 //! weight per component, inversely proportional to the errors. The reasons for each choice
 //! are in [`crate::auto`]'s documentation.
@@ -18,7 +18,7 @@ pub const MIN_VBL_PASSES: u64 = 4;
 #[derive(Clone, Debug, Default)]
 pub struct AutoReport {
     /// Path-traced samples per pixel that estimated each component (the path tracer runs
-    /// restricted to the components it serves best, [`PathTracerSettings::components`]), and
+    /// restricted to the components it serves best, [`beamlight_trace::pt::PathTracerSettings::components`]), and
     /// the path tracer's seconds in all.
     pub pt_spp: [u64; N],
     pub pt_seconds: f64,
@@ -35,7 +35,7 @@ pub struct AutoReport {
     /// Components only `vbl` can estimate (see the module documentation).
     pub vbl_only: [bool; N],
     /// The render's running sums, for its accumulators (set in the finished render's
-    /// report; during the render [`Progress::auto_sums`] lends them).
+    /// report; during the render [`crate::Progress::auto_sums`] lends them).
     pub sums: Option<AutoSums>,
 }
 
@@ -97,7 +97,7 @@ pub struct AutoSums {
     pub needed: [bool; N],
     pub vbl_only: [bool; N],
     /// The next `pt` sample's and `vbl` pass's index in their global sequences (a pass
-    /// range's round r runs `vbl` pass r and `pt` samples from r · [`PT_SPP_PER_ROUND`]).
+    /// range's round r runs `vbl` pass r and `pt` samples from r · [`crate::auto::PT_SPP_PER_ROUND`]).
     pub pt_next: u64,
     pub vbl_next: u64,
 }

@@ -52,10 +52,10 @@ pub struct ManyLightSettings {
     /// unclamped `vrl`.
     pub clamp: f32,
     /// Initial radius R0 of the virtual beam and spherical lights (`vbl`), in scene units; 0
-    /// picks [`default_radius`].
+    /// picks [`crate::radius::default_radius`].
     pub radius: f32,
     /// Initial radius R0 of the caustics' photon mapping and photon beams; 0 picks
-    /// [`default_photon_radius`].
+    /// [`crate::radius::default_photon_radius`].
     pub photon_radius: f32,
     /// The radius reduction's α of eq. 11, in (0, 1): smaller shrinks faster.
     pub alpha: f32,

@@ -1,5 +1,5 @@
 //! The estimator families a render can use (`--method`) and what sets them apart; the loop
-//! makes each one's pass sources and schedule from them ([`crate::progressive::setup`]).
+//! makes each one's pass sources and schedule from them (`progressive::setup`).
 use crate::{
     components::SceneFeatures,
     many_lights::{self, ManyLightSettings, VirtualLights},

@@ -75,7 +75,7 @@ pub fn add_material(scene: &mut Scene, m: Material) -> u32 {
     scene.materials.len() as u32 - 1
 }
 
-/// Adds the quad `corner + a·u + b·v`, a, b ∈ [0,1]; its front face looks along u × v.
+/// Adds the quad `corner + a·u + b·v`, a, b ∈ \[0, 1\]; its front face looks along u × v.
 pub fn add_quad(scene: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32) {
     let p = [corner, corner + u, corner + u + v, corner + v];
     for idx in [[0, 1, 2], [0, 2, 3]] {

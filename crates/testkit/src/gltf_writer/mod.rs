@@ -1,6 +1,6 @@
 //! A small glTF 2.0 writer for generated scenes (the bundled assets, tests, benchmarks).
 //!
-//! It writes exactly what [`crate::load`] reads: triangle meshes (positions, optional normals
+//! It writes exactly what [`beamlight_scene::load`] reads: triangle meshes (positions, optional normals
 //! and `TEXCOORD_0`, indices of the smallest sufficient width by default), node transforms,
 //! perspective cameras, metallic-roughness materials with an optional `baseColorTexture`
 //! (an embedded PNG with its sampler's wrap modes), `KHR_materials_emissive_strength`,
@@ -8,7 +8,7 @@
 //! Output is deterministic: the same calls give byte-identical files.
 //!
 //! ```no_run
-//! use beamlight_scene::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
+//! use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
 //! use glam::Vec3;
 //! let mut b = GltfBuilder::new();
 //! let white = b.material(MaterialDesc::lambert("White", [0.8, 0.8, 0.8]));
