@@ -196,7 +196,8 @@ pub struct PassTimes {
     pub gpu_wait: Duration,
     /// GPU kernel time, per gather kernel ([`beamlight_gpu::gather::GatherKernel`] order).
     pub kernels: [f64; KERNELS],
-    /// Wall time from the previous pass's completion to this one's (set by the orchestrator).
+    /// Wall time the pass held the render loop: its start (tracing, CPU estimates) and its
+    /// finish (waiting for the GPU), set by the loop; over a render these add up to its time.
     pub wall: Duration,
     /// CPU time (summed over threads, seconds) spent in each component's estimator on the CPU,
     /// in [`Component::ALL`] order. A component whose records or virtual lights are empty

@@ -83,7 +83,6 @@ pub fn render_from(
         steps_left: VecDeque::new(),
         pass_times: Vec::new(),
         discarded: resume.map_or(Discards::default(), |acc| acc.discarded),
-        last_finish: Instant::now(),
         free: Vec::new(),
     };
     let pixels = (opts.width * opts.height) as usize;
@@ -180,7 +179,6 @@ struct Run<'a, F> {
     steps_left: VecDeque<usize>,
     pass_times: Vec<PassTimes>,
     discarded: Discards,
-    last_finish: Instant,
     /// Output buffers of finished steps, for the next ones.
     free: Vec<PassOutput>,
 }
@@ -193,11 +191,13 @@ impl<F: FnMut(&Progress) -> bool> Run<'_, F> {
         let mut finished = s.flight.finish()?;
         let seconds = (s.held + clock.elapsed()).as_secs_f64();
         if let Some(times) = &mut finished.times {
-            times.wall = self.last_finish.elapsed();
+            // The seconds the pass held the loop. Over a render these add up to its time: while
+            // this pass's GPU work runs, the loop's time goes to other steps (the next pass's
+            // CPU share, `auto`'s path tracing) and counts for them.
+            times.wall = Duration::from_secs_f64(seconds);
             self.discarded.add(&times.discarded);
             self.pass_times.push(*times);
         }
-        self.last_finish = Instant::now();
         self.schedule.absorb(&s.step, &finished, seconds);
         self.free.push(finished.out);
         let left = self.steps_left.front_mut().expect("a finished step belongs to a unit");
