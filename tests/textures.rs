@@ -2,9 +2,9 @@
 //! sidecar, rendered by the path tracer, and checked against the closed form
 //! ρ(uv)/π · I cosθ / d² of a point light over a textured Lambert floor.
 mod common;
-use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
 use beamlight_scene::load::load_scene;
 use beamlight_scene::texture::Wrap;
+use beamlight_testkit::gltf_writer::{GltfBuilder, MaterialDesc, shapes};
 use common::*;
 use glam::{Vec2, Vec3};
 use std::f64::consts::PI;

@@ -52,7 +52,11 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
                     let name = format!(
                         "{} {method}{} {backend}",
                         scene.trim_end_matches(".toml"),
-                        if method == "pt" && components { "+components" } else { "" }
+                        if method == "pt" && components {
+                            "+components"
+                        } else {
+                            ""
+                        }
                     );
                     let exr = work.join("image.exr");
                     let mut cmd = Command::new(&bin);
@@ -62,7 +66,10 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
                         .arg(&exr)
                         .args(["--method", method, "--backend", backend, "--seed", "7"])
                         .args(["--width", &SIZE.to_string(), "--height", &SIZE.to_string()])
-                        .args(["--passes", &if method == "auto" { AUTO_ROUNDS } else { PASSES }.to_string()]);
+                        .args([
+                            "--passes",
+                            &if method == "auto" { AUTO_ROUNDS } else { PASSES }.to_string(),
+                        ]);
                     if components {
                         cmd.arg("--components");
                     }
@@ -97,10 +104,19 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
             .map(|(a, b)| format!("  before: {a}\n  now:    {b}"))
             .collect();
         if before.lines().count() != lines.len() {
-            bail!("{path} has {} renders, this run {}", before.lines().count(), lines.len());
+            bail!(
+                "{path} has {} renders, this run {}",
+                before.lines().count(),
+                lines.len()
+            );
         }
         if !changed.is_empty() {
-            bail!("{} of {} images changed:\n{}", changed.len(), lines.len(), changed.join("\n"));
+            bail!(
+                "{} of {} images changed:\n{}",
+                changed.len(),
+                lines.len(),
+                changed.join("\n")
+            );
         }
         println!("all {} images bit for bit as in {path}", lines.len());
     }

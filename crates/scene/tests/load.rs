@@ -2,13 +2,13 @@
 //! the broken-scene corpus in `tests/bad_scenes/` (every case must fail with a clear message
 //! naming the file, never panic).
 use beamlight_scene::bsdf::Bsdf;
-use beamlight_testkit::gltf_writer::{GltfBuilder, IndexWidth, MaterialDesc, NodeDesc, shapes};
 use beamlight_scene::light::PunctualLight;
 use beamlight_scene::load::load_scene;
 use beamlight_scene::medium::write_grid;
 use beamlight_scene::scene::MediumInterface;
 use beamlight_scene::texture::Wrap;
 use beamlight_scene::{Scene, SceneError};
+use beamlight_testkit::gltf_writer::{GltfBuilder, IndexWidth, MaterialDesc, NodeDesc, shapes};
 use glam::{Quat, UVec3, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
