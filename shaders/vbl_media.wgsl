@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/media_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lmm with virtual beam lights: every VRL, its points inflated to radius R, against one
 // camera media segment, the twin of `beamlight_trace::vbl::vbl_to_media` (paper eq. 10): the
@@ -114,28 +115,13 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     return seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t);
 }
 
-// The hooks of the shared entry point (lib/gather_entry.wgsl).
+// The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl
+// leaves to the kernel.
 const GATHER_KIND: u32 = KIND_VRL_TO_MEDIA;
-
-struct GatherRecord {
-    seg: MediaSegment,
-}
-
-fn gather_record(i: u32) -> GatherRecord {
-    return GatherRecord(media_segments[i]);
-}
-
-fn gathers_here(r: GatherRecord) -> bool {
-    return true;
-}
 
 // The VBL tree: after the VSL tree's nodes in the pass's tree array.
 fn light_tree_of(r: GatherRecord) -> vec2<u32> {
     return vec2<u32>(params.vsl_tree_nodes, params.vbl_tree_nodes);
-}
-
-fn record_receiver(r: GatherRecord) -> Receiver {
-    return segment_receiver(r.seg.origin, r.seg.dir, r.seg.length, media[r.seg.medium].g);
 }
 
 fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {

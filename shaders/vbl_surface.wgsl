@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/surface_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lsm with virtual beam lights: every VRL, its points inflated to radius R, against one
 // shading point, the twin of `beamlight_trace::vbl::vbl_to_surface` (paper eqs. 8–9): the VSL
@@ -63,34 +64,9 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     return sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf;
 }
 
-// The hooks of the shared entry point (lib/gather_entry.wgsl).
+// The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl
+// leaves to the kernel.
 const GATHER_KIND: u32 = KIND_VRL_TO_SURFACE;
-
-struct GatherRecord {
-    sp: ShadingPoint,
-    f_sp: Bsdf,
-    // The receiver's lobe, when it has one.
-    rx: Lobe,
-}
-
-fn gather_record(i: u32) -> GatherRecord {
-    let sp = shading_points[i];
-    let f_sp = point_bsdfs[i];
-    var rx: Lobe;
-    if f_sp.kind != BSDF_NONE {
-        rx = surface_lobe(f_sp, sp.normal, sp.wo, 1.0);
-    }
-    return GatherRecord(sp, f_sp, rx);
-}
-
-// `Surface::receiver` is None for a delta or missing BSDF: nothing to gather.
-fn gathers_here(r: GatherRecord) -> bool {
-    return r.f_sp.kind != BSDF_NONE;
-}
-
-fn record_receiver(r: GatherRecord) -> Receiver {
-    return point_receiver(r.sp.pos, r.sp.normal, r.sp.wo, r.f_sp);
-}
 
 // The VBL tree: after the VSL tree's nodes in the pass's tree array.
 fn light_tree_of(r: GatherRecord) -> vec2<u32> {

@@ -1,4 +1,5 @@
 //! use lib/media.wgsl
+//! use lib/surface_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lss with virtual point lights: every VPL against one shading point, the twin of
 // `beamlight_trace::vpl::vpl_to_surface` (clamped when params.clamp > 0).
@@ -27,30 +28,14 @@ fn vpl_to_surface(sp: ShadingPoint, f_sp: Bsdf, vpl: SurfaceVertex, f_vpl: Bsdf,
     return sp.throughput * vpl.power * f * tr * falloff(d2);
 }
 
-// The hooks of the shared entry point (lib/gather_entry.wgsl).
+// The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl
+// leaves to the kernel.
 const GATHER_KIND: u32 = KIND_VPL_TO_SURFACE;
-
-struct GatherRecord {
-    sp: ShadingPoint,
-    f_sp: Bsdf,
-}
-
-fn gather_record(i: u32) -> GatherRecord {
-    return GatherRecord(shading_points[i], point_bsdfs[i]);
-}
-
-fn gathers_here(r: GatherRecord) -> bool {
-    return true;
-}
 
 // Virtual ray and point lights are gathered without light selection: no tree, so the entry
 // point never asks for a receiver.
 fn light_tree_of(r: GatherRecord) -> vec2<u32> {
     return vec2<u32>(0u, 0u);
-}
-
-fn record_receiver(r: GatherRecord) -> Receiver {
-    return segment_receiver(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0);
 }
 
 fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {

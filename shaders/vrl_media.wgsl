@@ -1,4 +1,5 @@
 //! use lib/media.wgsl
+//! use lib/media_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lmm with virtual ray lights: every VRL against one camera media segment, the twin of
 // `beamlight_trace::vrl::vrl_to_media` with the VRL paper's two-stage sampling.
@@ -55,29 +56,14 @@ fn vrl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
         * falloff(dist * dist) / (pdf_u * pdf_t);
 }
 
-// The hooks of the shared entry point (lib/gather_entry.wgsl).
+// The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl
+// leaves to the kernel.
 const GATHER_KIND: u32 = KIND_VRL_TO_MEDIA;
-
-struct GatherRecord {
-    seg: MediaSegment,
-}
-
-fn gather_record(i: u32) -> GatherRecord {
-    return GatherRecord(media_segments[i]);
-}
-
-fn gathers_here(r: GatherRecord) -> bool {
-    return true;
-}
 
 // Virtual ray and point lights are gathered without light selection: no tree, so the entry
 // point never asks for a receiver.
 fn light_tree_of(r: GatherRecord) -> vec2<u32> {
     return vec2<u32>(0u, 0u);
-}
-
-fn record_receiver(r: GatherRecord) -> Receiver {
-    return segment_receiver(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0);
 }
 
 fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {

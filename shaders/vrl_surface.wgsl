@@ -1,4 +1,5 @@
 //! use lib/media.wgsl
+//! use lib/surface_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lsm with virtual ray lights: every VRL against one shading point, the twin of
 // `beamlight_trace::vrl::vrl_to_surface` (the point on the VRL sampled equiangularly).
@@ -34,30 +35,14 @@ fn vrl_to_surface(sp: ShadingPoint, f_sp: Bsdf, vrl: LightSegment, s: ptr<functi
     return sp.throughput * vrl.power * sigma_s * t_vrl * f * tr * falloff(dist * dist) / pdf;
 }
 
-// The hooks of the shared entry point (lib/gather_entry.wgsl).
+// The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl
+// leaves to the kernel.
 const GATHER_KIND: u32 = KIND_VRL_TO_SURFACE;
-
-struct GatherRecord {
-    sp: ShadingPoint,
-    f_sp: Bsdf,
-}
-
-fn gather_record(i: u32) -> GatherRecord {
-    return GatherRecord(shading_points[i], point_bsdfs[i]);
-}
-
-fn gathers_here(r: GatherRecord) -> bool {
-    return true;
-}
 
 // Virtual ray and point lights are gathered without light selection: no tree, so the entry
 // point never asks for a receiver.
 fn light_tree_of(r: GatherRecord) -> vec2<u32> {
     return vec2<u32>(0u, 0u);
-}
-
-fn record_receiver(r: GatherRecord) -> Receiver {
-    return segment_receiver(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, 0.0);
 }
 
 fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {

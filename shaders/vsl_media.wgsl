@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/media_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lms with virtual spherical lights: every VPL, inflated to radius R, against one camera
 // media segment, the twin of `beamlight_trace::vbl::vsl_to_media` (paper §3.3): the camera
@@ -65,28 +66,13 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     return seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf;
 }
 
-// The hooks of the shared entry point (lib/gather_entry.wgsl).
+// The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl
+// leaves to the kernel.
 const GATHER_KIND: u32 = KIND_VPL_TO_MEDIA;
-
-struct GatherRecord {
-    seg: MediaSegment,
-}
-
-fn gather_record(i: u32) -> GatherRecord {
-    return GatherRecord(media_segments[i]);
-}
-
-fn gathers_here(r: GatherRecord) -> bool {
-    return true;
-}
 
 // The VSL tree: the first nodes of the pass's tree array.
 fn light_tree_of(r: GatherRecord) -> vec2<u32> {
     return vec2<u32>(0u, params.vsl_tree_nodes);
-}
-
-fn record_receiver(r: GatherRecord) -> Receiver {
-    return segment_receiver(r.seg.origin, r.seg.dir, r.seg.length, media[r.seg.medium].g);
 }
 
 fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {

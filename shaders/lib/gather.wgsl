@@ -135,7 +135,7 @@ fn admit(v: vec3<f32>, discarded: ptr<function, u32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// `many_lights::injected`: the record's estimate, or the injected NaN for the pass's first record
+// `record_gathers::injected`: the record's estimate, or the injected NaN for the pass's first record
 // (`GatherParams::poison`).
 fn injected(v: vec3<f32>, record: u32) -> vec3<f32> {
     if params.poison != 0u && params.record_offset + record == 0u {

@@ -4,8 +4,9 @@
 // The entry point of every gather kernel: one invocation per gather record sums its estimate
 // over the pass's virtual lights, all of them, each with its pair's stream, or with light
 // selection (`params.light_samples` > 0) that many drawn from the pass's light tree, each over
-// its probability (the CPU's twin: `many_lights::gather_lights`), and writes it with its
-// discard count. The kernel file supplies what differs between kernels (the `hooks` above):
+// its probability (the CPU's twin: `record_gathers::gather_lights`), and writes it with its
+// discard count. The kernel supplies what differs between kernels (the `hooks` above), the
+// record's part from lib/surface_record.wgsl or lib/media_record.wgsl:
 //   const GATHER_KIND: u32                    the gather kind, which names its random streams
 //   struct GatherRecord                       what the kernel reads of a record, once
 //   fn gather_record(i: u32) -> GatherRecord

@@ -29,6 +29,14 @@ pub const SOURCES: &[(&str, &str)] = &[
         "lib/gather_entry.wgsl",
         include_str!("../../../shaders/lib/gather_entry.wgsl"),
     ),
+    (
+        "lib/surface_record.wgsl",
+        include_str!("../../../shaders/lib/surface_record.wgsl"),
+    ),
+    (
+        "lib/media_record.wgsl",
+        include_str!("../../../shaders/lib/media_record.wgsl"),
+    ),
     ("trace_rays.wgsl", include_str!("../../../shaders/trace_rays.wgsl")),
     ("vpl_surface.wgsl", include_str!("../../../shaders/vpl_surface.wgsl")),
     ("vrl_surface.wgsl", include_str!("../../../shaders/vrl_surface.wgsl")),
