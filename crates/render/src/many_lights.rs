@@ -9,7 +9,7 @@
 //! pass's radius from the schedule of eq. 11 ([`crate::radius`]).
 use crate::{
     radius::paths_squared_radius,
-    record_gathers::{CausticLookup, PassGathers},
+    record_gathers::{CausticLookup, PassGathers, Selection, credited, direct_stream, injected},
 };
 use beamlight_gpu::{
     GpuBackend, GpuError,
@@ -23,12 +23,15 @@ use beamlight_trace::{
     components::Component,
     direct,
     light_paths::{Keep, LightTracerSettings, trace_light_paths},
-    light_tree::{LightTree, Receiver},
-    streams::{self, GatherKind},
+    light_tree::LightTree,
+    streams,
     vbl::VblSettings,
 };
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
+
+/// What may enter an accumulator (defined beside the CPU's gathers, which use it most).
+pub use crate::record_gathers::admit;
 
 /// How the light paths' records are gathered for the indirect components.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -253,20 +256,6 @@ impl std::fmt::Display for Discards {
         }
         write!(f, "; light paths {}", self.light_paths)
     }
-}
-
-/// What may enter an accumulator: `v` when it is finite and non-negative; otherwise it counts
-/// in `discarded` and only its finite non-negative part passes (0 for NaN or ∞, negative
-/// channels raised to 0). Every virtual-light, caustic and direct-light estimate goes through
-/// this, once per drawn pair and once per record, on the CPU and (as `admit` in
-/// `shaders/lib/gather.wgsl`) on the GPU.
-#[inline]
-pub fn admit(v: Rgb, discarded: &mut u64) -> Rgb {
-    if v.is_finite() && v.min_element() >= 0.0 {
-        return v;
-    }
-    *discarded += 1;
-    if v.is_finite() { v.max(Rgb::ZERO) } else { Rgb::ZERO }
 }
 
 /// The GPU's gather kernels, by which [`PassTimes::kernels`] is indexed.
@@ -553,19 +542,6 @@ pub fn start_pass(
     })
 }
 
-/// The component a record's estimate of `component` belongs to: itself at the camera's
-/// records; the walk's credit at a walk record, whose (v1, v2) classify its every path
-/// ([`beamlight_trace::components`]).
-pub(crate) fn credited(component: Component, credit: Option<Component>) -> Component {
-    credit.unwrap_or(component)
-}
-
-/// Direct light's random stream for record `i` of `kind` (0: shading points, 1: media
-/// segments, walk segments numbered after the camera's) of a camera sample with `seed`.
-pub(crate) fn direct_stream(seed: u32, pass: u32, kind: u32, i: usize) -> Sampler {
-    Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind)
-}
-
 /// The seed of direct light's `k`-th extra camera sample (k ≥ 1) of a render with `seed`.
 fn direct_seed(seed: u32, k: u32) -> u32 {
     beamlight_scene::rng::pcg_hash(seed ^ 0x2545_f491).wrapping_add(k)
@@ -597,107 +573,4 @@ fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, injec
         out[pixel as usize] += admit(injected(v, inject_nan && i == 0), &mut discarded);
     }
     discarded
-}
-
-/// Fault injection ([`ManyLightSettings::inject_nan`]): `v`, or NaN when `poison`.
-pub(crate) fn injected(v: Rgb, poison: bool) -> Rgb {
-    if poison { Rgb::splat(f32::NAN) } else { v }
-}
-
-/// One pass's light trees and the lights each record draws from each.
-pub(crate) struct Selection {
-    k: u32,
-    /// Draws per camera media segment from the VBL tree (`Lmm`,
-    /// [`ManyLightSettings::media_light_samples`]).
-    k_media: u32,
-    /// The pass's VBL/VSL radius.
-    r: f32,
-    pair_seed: u32,
-    pass: u32,
-    pub(crate) vsls: LightTree,
-    pub(crate) vbls: LightTree,
-}
-
-impl Selection {
-    /// [`LightTree::estimate`] for record `record` of kind `kind` with its streams
-    /// ([`streams`]: the selection number, each slot's descent and drawn pair), `f(light,
-    /// stream)` the drawn light's contribution, each [`admit`]ted (counted in `discarded`); its
-    /// CPU time added to `seconds` (an empty tree is not timed).
-    #[allow(clippy::too_many_arguments)]
-    fn timed_estimate(
-        &self,
-        seconds: &mut f64,
-        discarded: &mut u64,
-        tree: &LightTree,
-        rx: &Receiver,
-        kind: GatherKind,
-        record: usize,
-        mut f: impl FnMut(usize, &mut Sampler) -> Rgb,
-    ) -> Rgb {
-        if tree.is_empty() {
-            return Rgb::ZERO;
-        }
-        let (seed, pass, i) = (self.pair_seed, self.pass, record as u32);
-        timed(seconds, || {
-            tree.estimate(
-                rx,
-                self.r,
-                if kind == GatherKind::VrlToMedia {
-                    self.k_media
-                } else {
-                    self.k
-                },
-                streams::selection_number(seed, pass, kind, i),
-                |slot| streams::selection_sampler(seed, pass, kind, i, slot),
-                |slot, j| {
-                    admit(
-                        f(j, &mut streams::drawn_pair_sampler(seed, pass, kind, i, slot)),
-                        discarded,
-                    )
-                },
-            )
-        })
-    }
-}
-
-/// One record's gather over a set of `lights` virtual lights, before the division by the path
-/// count M: with light selection, the lights `drawn` from its tree for the record's receiver;
-/// without, every light, each with its pair's stream. `f(index, stream)` is light `index`'s
-/// contribution; the
-/// gather's CPU time and discards go to `(seconds, discarded)`; `(kind, record, pair_seed,
-/// pass)` name the record's streams ([`streams`]).
-pub(crate) fn gather_lights(
-    drawn: Option<(&Selection, &LightTree, &Receiver)>,
-    (seconds, discarded): (&mut f64, &mut u64),
-    lights: usize,
-    (kind, record, pair_seed, pass): (GatherKind, usize, u32, u32),
-    f: &dyn Fn(usize, &mut Sampler) -> Rgb,
-) -> Rgb {
-    match drawn {
-        Some((sel, tree, rx)) => sel.timed_estimate(seconds, discarded, tree, rx, kind, record, f),
-        None => timed_sum(seconds, discarded, lights, |j| {
-            f(
-                j,
-                &mut streams::pair_sampler(pair_seed, pass, kind, record as u32, j as u32),
-            )
-        }),
-    }
-}
-
-/// Σ over a light set of `lights` virtual lights of each one's contribution, `f(index)`, each
-/// [`admit`]ted (counted in `discarded`); its CPU time added to `seconds` (an empty set costs
-/// nothing and is not timed).
-fn timed_sum(seconds: &mut f64, discarded: &mut u64, lights: usize, f: impl Fn(usize) -> Rgb) -> Rgb {
-    if lights == 0 {
-        return Rgb::ZERO;
-    }
-    timed(seconds, || (0..lights).map(|j| admit(f(j), discarded)).sum())
-}
-
-/// Runs `f`, adding its duration to `seconds` (per-component CPU time for `--stats`).
-pub(crate) fn timed<R>(seconds: &mut f64, f: impl FnOnce() -> R) -> R {
-    let clock = Instant::now();
-    let r = f();
-    *seconds += clock.elapsed().as_secs_f64();
-    r
 }

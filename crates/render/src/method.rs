@@ -1,9 +1,12 @@
-//! The estimator families a render can use (`--method`) and what sets them apart; the loop
-//! makes each one's pass sources and schedule from them (`progressive::setup`).
+//! The estimator families a render can use (`--method`): what sets them apart and the pass
+//! sources each renders with ([`Method::sources`]). This is where an estimator is registered;
+//! the loop (`progressive::setup`) only picks the schedule (`auto`'s, or every pass averaged).
 use crate::{
+    auto,
     components::SceneFeatures,
     many_lights::{self, ManyLightSettings, VirtualLights},
     radius,
+    source::{ManyLights, PassSource, PathTracer, SourceInputs},
 };
 use beamlight_trace::TraceScene;
 
@@ -54,6 +57,37 @@ impl Method {
             Method::Pt => None,
             Method::Vrl | Method::VrlClamped => Some(VirtualLights::Rays),
             Method::Vbl | Method::Auto => Some(VirtualLights::Beams),
+        }
+    }
+
+    /// The pass sources a render with this method draws from: one for every method but
+    /// `auto`, whose two are the path tracer (its components apart) and `vbl` with a seed of
+    /// its own, in the order of [`auto::PT`] and [`auto::VBL`].
+    pub fn sources<'a>(self, inputs: SourceInputs<'a>) -> Vec<Box<dyn PassSource + 'a>> {
+        let path_tracer = |split| -> Box<dyn PassSource + 'a> {
+            Box::new(PathTracer {
+                ts: inputs.ts,
+                settings: inputs.path_tracer,
+                width: inputs.width,
+                height: inputs.height,
+                seed: inputs.seed,
+                split,
+            })
+        };
+        let many_lights = |method: Method, seed| -> Box<dyn PassSource + 'a> {
+            Box::new(ManyLights {
+                ts: inputs.ts,
+                settings: method.many_light_settings(inputs.ts, inputs.many_lights),
+                width: inputs.width,
+                height: inputs.height,
+                seed,
+                gpu: inputs.gpu,
+            })
+        };
+        match self {
+            Method::Pt => vec![path_tracer(inputs.split)],
+            Method::Vrl | Method::VrlClamped | Method::Vbl => vec![many_lights(self, inputs.seed)],
+            Method::Auto => vec![path_tracer(true), many_lights(Method::Vbl, auto::vbl_seed(inputs.seed))],
         }
     }
 

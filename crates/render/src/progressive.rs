@@ -6,12 +6,12 @@
 use crate::{
     Film,
     accum::Accumulators,
-    auto::{self, Auto, AutoReport, AutoSums},
+    auto::{Auto, AutoReport, AutoSums},
     many_lights::{Discards, PassTimes},
     method::Method,
     options::{Budget, RenderOptions},
     schedule::{EveryPass, Remaining, Schedule, Step},
-    source::{InFlight, ManyLights, N, PassOutput, PassSource, PathTracer},
+    source::{InFlight, N, PassOutput, PassSource, SourceInputs},
 };
 use beamlight_trace::TraceScene;
 use std::collections::VecDeque;
@@ -236,26 +236,16 @@ pub(crate) fn setup<'a>(
     resume: Option<&Accumulators>,
 ) -> Result<(Sources<'a>, Box<dyn Schedule + 'a>), String> {
     let (width, height) = (opts.width, opts.height);
-    let path_tracer = |split| -> Box<dyn PassSource + 'a> {
-        Box::new(PathTracer {
-            ts,
-            settings: opts.path_tracer,
-            width,
-            height,
-            seed: opts.seed,
-            split,
-        })
-    };
-    let many_lights = |seed| -> Box<dyn PassSource + 'a> {
-        Box::new(ManyLights {
-            ts,
-            settings: opts.method.many_light_settings(ts, &opts.many_lights),
-            width,
-            height,
-            seed,
-            gpu: opts.gpu.as_deref(),
-        })
-    };
+    let sources = opts.method.sources(SourceInputs {
+        ts,
+        width,
+        height,
+        seed: opts.seed,
+        path_tracer: opts.path_tracer,
+        many_lights: &opts.many_lights,
+        split: opts.components,
+        gpu: opts.gpu.as_deref(),
+    });
     if opts.method == Method::Auto {
         let sums = match resume {
             Some(acc) => Some((
@@ -268,14 +258,8 @@ pub(crate) fn setup<'a>(
         };
         let fixed = matches!(opts.budget, Budget::Passes(_));
         let schedule = Auto::new(ts, width, height, opts.first_pass, sums, fixed)?;
-        // In the order of `auto::PT` and `auto::VBL`.
-        let sources = vec![path_tracer(true), many_lights(auto::vbl_seed(opts.seed))];
         return Ok((sources, Box::new(schedule)));
     }
-    let source = match opts.method {
-        Method::Pt => path_tracer(opts.components),
-        _ => many_lights(opts.seed),
-    };
     let n_components = if opts.components { N } else { 0 };
     let films = match resume {
         Some(acc) => {
@@ -294,5 +278,5 @@ pub(crate) fn setup<'a>(
         None => None,
     };
     let schedule = EveryPass::new(width, height, opts.components, opts.first_pass, films);
-    Ok((vec![source], Box::new(schedule)))
+    Ok((sources, Box::new(schedule)))
 }

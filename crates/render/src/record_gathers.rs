@@ -2,7 +2,6 @@
 //! shading point on a surface and a camera segment through a medium each gather the same two
 //! light sets (the point-like VPLs/VSLs and the ray-like VRLs/VBLs) and one caustic map, through
 //! estimators and into components of their kind ([`Record`]).
-use crate::many_lights::{Selection, admit, credited, direct_stream, gather_lights, injected, timed};
 use beamlight_scene::{Rgb, Scene, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
@@ -11,12 +10,13 @@ use beamlight_trace::{
     direct,
     gather::GatherInputs,
     light_paths::{LightSegment, SurfaceVertex},
-    light_tree::Receiver,
-    streams::GatherKind,
+    light_tree::{LightTree, Receiver},
+    streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
 };
 use rayon::prelude::*;
+use std::time::Instant;
 
 const N: usize = Component::ALL.len();
 
@@ -275,4 +275,134 @@ impl PassGathers<'_> {
     fn poison(&self, i: usize, lights: usize) -> bool {
         self.inputs.inject_nan && i == 0 && lights > 0
     }
+}
+
+/// What may enter an accumulator: `v` when it is finite and non-negative; otherwise it counts
+/// in `discarded` and only its finite non-negative part passes (0 for NaN or ∞, negative
+/// channels raised to 0). Every virtual-light, caustic and direct-light estimate goes through
+/// this, once per drawn pair and once per record, on the CPU and (as `admit` in
+/// `shaders/lib/gather.wgsl`) on the GPU.
+#[inline]
+pub fn admit(v: Rgb, discarded: &mut u64) -> Rgb {
+    if v.is_finite() && v.min_element() >= 0.0 {
+        return v;
+    }
+    *discarded += 1;
+    if v.is_finite() { v.max(Rgb::ZERO) } else { Rgb::ZERO }
+}
+
+/// The component a record's estimate of `component` belongs to: itself at the camera's
+/// records; the walk's credit at a walk record, whose (v1, v2) classify its every path
+/// ([`beamlight_trace::components`]).
+pub(crate) fn credited(component: Component, credit: Option<Component>) -> Component {
+    credit.unwrap_or(component)
+}
+
+/// Direct light's random stream for record `i` of `kind` (0: shading points, 1: media
+/// segments, walk segments numbered after the camera's) of a camera sample with `seed`.
+pub(crate) fn direct_stream(seed: u32, pass: u32, kind: u32, i: usize) -> Sampler {
+    Sampler::new(seed ^ 0x5bd1_e995, pass, (i as u32).wrapping_mul(2) + kind)
+}
+
+/// Fault injection ([`crate::many_lights::ManyLightSettings::inject_nan`]): `v`, or NaN when `poison`.
+pub(crate) fn injected(v: Rgb, poison: bool) -> Rgb {
+    if poison { Rgb::splat(f32::NAN) } else { v }
+}
+
+/// One pass's light trees and the lights each record draws from each.
+pub(crate) struct Selection {
+    pub(crate) k: u32,
+    /// Draws per camera media segment from the VBL tree (`Lmm`,
+    /// [`crate::many_lights::ManyLightSettings::media_light_samples`]).
+    pub(crate) k_media: u32,
+    /// The pass's VBL/VSL radius.
+    pub(crate) r: f32,
+    pub(crate) pair_seed: u32,
+    pub(crate) pass: u32,
+    pub(crate) vsls: LightTree,
+    pub(crate) vbls: LightTree,
+}
+
+impl Selection {
+    /// [`LightTree::estimate`] for record `record` of kind `kind` with its streams
+    /// ([`streams`]: the selection number, each slot's descent and drawn pair), `f(light,
+    /// stream)` the drawn light's contribution, each [`admit`]ted (counted in `discarded`); its
+    /// CPU time added to `seconds` (an empty tree is not timed).
+    #[allow(clippy::too_many_arguments)]
+    fn timed_estimate(
+        &self,
+        seconds: &mut f64,
+        discarded: &mut u64,
+        tree: &LightTree,
+        rx: &Receiver,
+        kind: GatherKind,
+        record: usize,
+        mut f: impl FnMut(usize, &mut Sampler) -> Rgb,
+    ) -> Rgb {
+        if tree.is_empty() {
+            return Rgb::ZERO;
+        }
+        let (seed, pass, i) = (self.pair_seed, self.pass, record as u32);
+        timed(seconds, || {
+            tree.estimate(
+                rx,
+                self.r,
+                if kind == GatherKind::VrlToMedia {
+                    self.k_media
+                } else {
+                    self.k
+                },
+                streams::selection_number(seed, pass, kind, i),
+                |slot| streams::selection_sampler(seed, pass, kind, i, slot),
+                |slot, j| {
+                    admit(
+                        f(j, &mut streams::drawn_pair_sampler(seed, pass, kind, i, slot)),
+                        discarded,
+                    )
+                },
+            )
+        })
+    }
+}
+
+/// One record's gather over a set of `lights` virtual lights, before the division by the path
+/// count M: with light selection, the lights `drawn` from its tree for the record's receiver;
+/// without, every light, each with its pair's stream. `f(index, stream)` is light `index`'s
+/// contribution; the
+/// gather's CPU time and discards go to `(seconds, discarded)`; `(kind, record, pair_seed,
+/// pass)` name the record's streams ([`streams`]).
+pub(crate) fn gather_lights(
+    drawn: Option<(&Selection, &LightTree, &Receiver)>,
+    (seconds, discarded): (&mut f64, &mut u64),
+    lights: usize,
+    (kind, record, pair_seed, pass): (GatherKind, usize, u32, u32),
+    f: &dyn Fn(usize, &mut Sampler) -> Rgb,
+) -> Rgb {
+    match drawn {
+        Some((sel, tree, rx)) => sel.timed_estimate(seconds, discarded, tree, rx, kind, record, f),
+        None => timed_sum(seconds, discarded, lights, |j| {
+            f(
+                j,
+                &mut streams::pair_sampler(pair_seed, pass, kind, record as u32, j as u32),
+            )
+        }),
+    }
+}
+
+/// Σ over a light set of `lights` virtual lights of each one's contribution, `f(index)`, each
+/// [`admit`]ted (counted in `discarded`); its CPU time added to `seconds` (an empty set costs
+/// nothing and is not timed).
+fn timed_sum(seconds: &mut f64, discarded: &mut u64, lights: usize, f: impl Fn(usize) -> Rgb) -> Rgb {
+    if lights == 0 {
+        return Rgb::ZERO;
+    }
+    timed(seconds, || (0..lights).map(|j| admit(f(j), discarded)).sum())
+}
+
+/// Runs `f`, adding its duration to `seconds` (per-component CPU time for `--stats`).
+pub(crate) fn timed<R>(seconds: &mut f64, f: impl FnOnce() -> R) -> R {
+    let clock = Instant::now();
+    let r = f();
+    *seconds += clock.elapsed().as_secs_f64();
+    r
 }

@@ -76,6 +76,22 @@ pub trait InFlight {
     fn finish(self: Box<Self>) -> Result<Finished, String>;
 }
 
+/// What a render's pass sources are made from ([`crate::method::Method::sources`]).
+#[derive(Clone, Copy)]
+pub struct SourceInputs<'a> {
+    pub ts: &'a TraceScene,
+    pub width: u32,
+    pub height: u32,
+    /// The render's seed (a source may derive its own from it).
+    pub seed: u32,
+    pub path_tracer: PathTracerSettings,
+    /// As given: each method fills in what is left to it and to the scene.
+    pub many_lights: &'a ManyLightSettings,
+    /// Keep the components apart (`--components`; always for the many-light methods).
+    pub split: bool,
+    pub gpu: Option<&'a GpuBackend>,
+}
+
 /// The unbiased volumetric path tracer: one sample per pixel per pass.
 pub struct PathTracer<'a> {
     pub ts: &'a TraceScene,
@@ -114,8 +130,8 @@ impl PassSource for PathTracer<'_> {
     }
 }
 
-/// A pass that was complete when it started.
-struct Done(PassOutput);
+/// A pass that was complete when it started (what a CPU-only source returns).
+pub struct Done(pub PassOutput);
 
 impl InFlight for Done {
     fn pending(&self) -> bool {
