@@ -32,6 +32,9 @@ mod bench;
 mod cluster;
 mod fingerprint;
 mod glass_scenes;
+/// Checked by its tests, in the normal test run.
+#[cfg(test)]
+mod imports;
 mod showcase;
 
 const USAGE: &str = "usage: cargo xtask <command>

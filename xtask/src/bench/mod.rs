@@ -29,6 +29,9 @@ pub const USAGE: &str = "usage: cargo xtask bench [options]
   --time-scale X        multiplies every budget and the reference time (default 1)
   --size N              image width and height (default 96)
   --ref-time S          seconds per reference half and estimator before scaling (default 60)
+  --ref-renderer ID     the renderer identity the reference cache is keyed by (default: the
+                        last commit touching the renderer's sources, '+dirty' with changes);
+                        an earlier build's, to compare two builds against one reference
   --ref-methods M,...   the reference's estimators: pt, or pt and a second independent one
                         (e.g. pt,vrl), checked against each other per component and combined;
                         'auto' (default): pt, plus vrl where the scene has caustics
@@ -52,6 +55,8 @@ struct Options {
     ref_time: f64,
     /// `None`: per scene, pt plus vrl where it has caustics.
     ref_methods: Option<Vec<String>>,
+    /// `None`: [`renderer_id`].
+    ref_renderer: Option<String>,
     repeats: u32,
     target: Option<f64>,
     mitsuba: bool,
@@ -81,6 +86,7 @@ fn parse(args: &[String]) -> Result<Options> {
         size: 96,
         ref_time: 60.0,
         ref_methods: None,
+        ref_renderer: None,
         repeats: 1,
         target: None,
         mitsuba: true,
@@ -123,6 +129,7 @@ fn parse(args: &[String]) -> Result<Options> {
             "--time-scale" => o.scale = num(flag, v)?,
             "--size" => o.size = num(flag, v)? as u32,
             "--ref-time" => o.ref_time = num(flag, v)?,
+            "--ref-renderer" => o.ref_renderer = Some(v.to_string()),
             "--ref-methods" => o.ref_methods = (v != "auto").then(|| list(v)),
             "--repeats" => o.repeats = num(flag, v)? as u32,
             "--target" => o.target = Some(num(flag, v)?),
@@ -258,7 +265,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         seconds_per_half: o.ref_time * o.scale,
         seed_base: 1_000_001,
         methods: vec!["pt".into()],
-        renderer: renderer_id(root),
+        renderer: o.ref_renderer.clone().unwrap_or_else(|| renderer_id(root)),
     };
     let budgets: Vec<f64> = o.budgets.iter().map(|b| b * o.scale).collect();
     let mut summary = String::new();
