@@ -216,8 +216,13 @@ impl ComponentError {
                 e.pt += v * r;
                 e.vbl += vv * r;
                 diff += mv - m;
-                level += m;
-                level_weighted += m * m * r;
+                // The level the difference is measured against: the brighter estimate, so
+                // that a path tracer that has found none of a component's light (all its
+                // samples zero, its variance zero: it would look exact) is judged against the
+                // light `vbl` shows instead of against nothing.
+                let top = m.max(mv);
+                level += top;
+                level_weighted += top * top * r;
             }
         }
         // Relative difference of the image means, β = Δ/level, minus what the noise of the two
@@ -496,6 +501,28 @@ mod tests {
         let e = errors(&vbl, &pt, &means(64, 1.0, 0.2 / 16.0), &means(64, 0.8, 0.05 / 16.0));
         assert_eq!(e.pt_tail2, 0.0);
         assert!(e.bias2 > 0.0 && e.vbl_weight(true, true) < 0.1, "{e:?}");
+    }
+
+    /// A path tracer that has found none of a component's light (every sample zero, so zero
+    /// variance, as behind glass early on) is not exact: against a `vbl` that shows the light
+    /// it carries the whole missing light as its error, and `vbl` takes the weight and the
+    /// schedule's attention. (Measured against `pt`'s level alone it had neither: its tail
+    /// term needs a level, the model then saw a zero error and no gain in any step, and the
+    /// component was left with `vbl`'s first passes at weight 0 in `lamp_in_glass`.)
+    #[test]
+    fn a_path_tracer_that_found_nothing_is_not_exact() {
+        let (w, h) = (16, 16);
+        let pt = film(w, h, 6, 0.0, 0.0);
+        let vbl = film(w, h, 4, 1.0, 0.5);
+        let e = errors(&pt, &vbl, &means(6, 0.0, 0.0), &means(4, 1.0, 0.5 / 16.0));
+        assert_eq!(e.pt, 0.0);
+        assert!(e.pt_tail2 > 0.0, "{e:?}");
+        assert!(e.vbl_weight(true, true) > 0.9, "{e:?}");
+        let (mse, d_pt, d_vbl) = e.model(6.0, 4.0, true);
+        assert!(mse > 0.0 && d_pt < 0.0 && d_vbl < 0.0, "{mse} {d_pt} {d_vbl}");
+        // Both at zero: nothing to tell apart, no error.
+        let e = errors(&pt, &film(w, h, 4, 0.0, 0.0), &means(6, 0.0, 0.0), &means(4, 0.0, 0.0));
+        assert_eq!((e.pt_tail2, e.bias2), (0.0, 0.0));
     }
 
     /// The error model: with `vbl` absent it is pt's variance of the mean, falling as 1/n;
