@@ -520,6 +520,52 @@ fn per_drawn<R>(
         .collect()
 }
 
+/// A GPU opened for one method's kernels (a render compiles only its own) refuses to run
+/// another's: an error naming the kernel, not a component left black. Made to fail by
+/// letting `submit` skip a kernel it has not compiled (the old behaviour): `Ok` with zeros.
+#[test]
+fn a_kernel_not_compiled_is_an_error() {
+    let Some(_) = beamlight_gpu::device::for_tests() else {
+        return;
+    };
+    let ts = TraceScene::new(glossy_fog_box(false));
+    let backend = GpuBackend::open_for(&ts.scene, &GatherKernel::RAYS).unwrap();
+    let (w, h) = (ts.scene.render.width, ts.scene.render.height);
+    let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, 1, 0);
+    let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 8, 1, 0);
+    let inputs = GatherInputs {
+        shading_points: &gather.shading_points,
+        media_segments: &gather.media_segments,
+        vpls: &lights.vpls,
+        vrls: &lights.vrls,
+        paths: lights.paths,
+        pair_seed: streams::pair_seed(1),
+        pass: 0,
+        clamp: 0.0,
+        radius2: 0.01,
+        vbl: VblSettings::default(),
+        light_samples: 0,
+        media_light_samples: 0,
+        vsl_tree: &[],
+        vbl_tree: &[],
+        inject_nan: false,
+    };
+    let run = |k: GatherKernel| {
+        backend.gathers.run(
+            &backend.gpu,
+            &backend.scene,
+            &ts.scene,
+            &inputs,
+            std::array::from_fn(|i| GatherKernel::ALL[i] == k),
+        )
+    };
+    assert!(run(GatherKernel::VrlMedia).is_ok());
+    let err = run(GatherKernel::VblMedia)
+        .err()
+        .expect("a kernel not compiled must not run");
+    assert!(err.to_string().contains("vbl_media.wgsl"), "{err}");
+}
+
 #[test]
 fn gathers_match_cpu_in_a_homogeneous_fog_box() {
     compare_gathers(

@@ -165,7 +165,8 @@ pub struct Gathered {
 }
 
 pub struct Gathers {
-    /// Indexed by [`GatherKernel`]; `None` for kernels not written yet.
+    /// Indexed by [`GatherKernel`]; `None` for kernels not compiled (not asked for, or not
+    /// written yet).
     kernels: Vec<Option<Kernel>>,
     /// At most this many gather records per dispatch (beyond what the binding limit allows).
     chunk_limit: usize,
@@ -191,16 +192,28 @@ const GATHER_SLOTS: [Slot; 9] = [
 ];
 
 impl Gathers {
-    pub fn new(gpu: &Gpu, scene: &GpuScene) -> Result<Gathers, GpuError> {
+    /// Compiles the kernels in `only` that are written (see [`GatherKernel::available`]), each
+    /// on a thread of its own: on a CPU adapter (lavapipe) a pipeline is compiled by LLVM when
+    /// it is created, a third of a second per kernel, and the kernels compile independently.
+    /// A render compiles its method's four kernels, not all eight.
+    pub fn new(gpu: &Gpu, scene: &GpuScene, only: &[GatherKernel]) -> Result<Gathers, GpuError> {
         let layout = compute::bind_group_layout(gpu, "gather", &GATHER_SLOTS);
-        let kernels = GatherKernel::ALL
-            .iter()
-            .map(|k| {
-                k.available()
-                    .then(|| Kernel::new(gpu, k.file(), vec![scene.layout.clone(), layout.clone()]))
-                    .transpose()
-            })
-            .collect::<Result<_, _>>()?;
+        let compile = |k: GatherKernel| Kernel::new(gpu, k.file(), vec![scene.layout.clone(), layout.clone()]);
+        let wanted: Vec<GatherKernel> = GatherKernel::ALL
+            .into_iter()
+            .filter(|k| only.contains(k) && k.available())
+            .collect();
+        let compiled: Vec<(GatherKernel, Result<Kernel, GpuError>)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = wanted.iter().map(|&k| (k, scope.spawn(move || compile(k)))).collect();
+            handles
+                .into_iter()
+                .map(|(k, h)| (k, h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))))
+                .collect()
+        });
+        let mut kernels: Vec<Option<Kernel>> = (0..KERNELS).map(|_| None).collect();
+        for (k, kernel) in compiled {
+            kernels[k as usize] = Some(kernel?);
+        }
         Ok(Gathers {
             kernels,
             chunk_limit: usize::MAX,
@@ -249,9 +262,18 @@ impl Gathers {
         inputs: &GatherInputs,
         run: [bool; KERNELS],
     ) -> Result<PendingGathers, GpuError> {
-        let wanted = |k: GatherKernel| {
-            run[k as usize] && self.kernels[k as usize].is_some() && k.records(inputs) > 0 && k.lights(inputs) > 0
-        };
+        // A kernel asked for but not compiled is the caller's bug (it opened the GPU for
+        // another method): an error, not a component left black.
+        if let Some(k) = GatherKernel::ALL
+            .into_iter()
+            .find(|&k| run[k as usize] && self.kernels[k as usize].is_none())
+        {
+            return Err(GpuError::Shader(format!(
+                "the kernel {} was asked for but not compiled",
+                k.file()
+            )));
+        }
+        let wanted = |k: GatherKernel| run[k as usize] && k.records(inputs) > 0 && k.lights(inputs) > 0;
         // Upload only what a dispatched kernel reads.
         let any = |f: fn(GatherKernel) -> bool| GatherKernel::ALL.iter().any(|&k| wanted(k) && f(k));
         let (need_points, need_segments) = (any(|k| k.on_surfaces()), any(|k| !k.on_surfaces()));

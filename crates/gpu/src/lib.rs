@@ -21,11 +21,18 @@ pub struct GpuBackend {
 }
 
 impl GpuBackend {
-    /// Opens the best adapter (see [`device`]) and uploads `scene`.
+    /// Opens the best adapter (see [`device`]), uploads `scene` and compiles every gather
+    /// kernel.
     pub fn open(scene: &beamlight_scene::Scene) -> Result<GpuBackend, GpuError> {
+        Self::open_for(scene, &gather::GatherKernel::ALL)
+    }
+
+    /// [`GpuBackend::open`] compiling only `kernels` (a method's: compiling one costs about a
+    /// third of a second on lavapipe); running another is an error.
+    pub fn open_for(scene: &beamlight_scene::Scene, kernels: &[gather::GatherKernel]) -> Result<GpuBackend, GpuError> {
         let gpu = Gpu::open()?;
         let gpu_scene = GpuScene::upload(&gpu, scene)?;
-        let gathers = gather::Gathers::new(&gpu, &gpu_scene)?;
+        let gathers = gather::Gathers::new(&gpu, &gpu_scene, kernels)?;
         Ok(GpuBackend {
             gpu,
             scene: gpu_scene,

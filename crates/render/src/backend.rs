@@ -62,7 +62,9 @@ pub fn open(backend: Backend, method: Method, scene: &Scene) -> Result<(Option<A
         Some(crate::many_lights::VirtualLights::Beams) => "VBL/VSL gathers",
         _ => "VRL/VPL gathers",
     };
-    let open = || GpuBackend::open(scene).map(Arc::new);
+    // Only the method's kernels are compiled (a method without any opens none).
+    let kernels = method.virtual_lights().map(crate::many_lights::gpu_kernels);
+    let open = || GpuBackend::open_for(scene, kernels.as_ref().map_or(&[][..], |k| &k[..])).map(Arc::new);
     Ok(match backend {
         Backend::Cpu => (None, "cpu".to_string()),
         Backend::Gpu => {

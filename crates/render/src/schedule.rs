@@ -74,6 +74,8 @@ pub struct EveryPass {
     finished: u64,
     /// Wall time between the last few pass completions (for the time budget).
     recent_periods: VecDeque<Duration>,
+    /// Units completed (the periods recorded).
+    completed: u64,
     last_completion: Instant,
 }
 
@@ -95,9 +97,40 @@ impl EveryPass {
             started: 0,
             finished: 0,
             recent_periods: VecDeque::new(),
+            completed: 0,
             last_completion: Instant::now(),
         }
     }
+}
+
+/// The time between pass completions to plan with: the mean of the last few.
+fn period(recent: &VecDeque<Duration>) -> f64 {
+    recent.iter().map(Duration::as_secs_f64).sum::<f64>() / recent.len().max(1) as f64
+}
+
+/// How many recent pass periods [`period`] averages.
+const PERIODS: usize = 4;
+
+/// `recent` after a pass completed `period` after the one before: the first period (which
+/// carries the render's warm-up: threads starting, memory first touched) is replaced by the
+/// second, and only the last [`PERIODS`] are kept.
+fn record_period(recent: &mut VecDeque<Duration>, completed: u64, period: Duration) {
+    if completed == 2 || recent.len() == PERIODS {
+        recent.pop_front();
+    }
+    recent.push_back(period);
+}
+
+/// Whether a new pass should start with `left` seconds of the budget to go, when passes
+/// finish `period` seconds apart and it would be the `queued`-th to finish from now (the one
+/// still on the GPU comes first): yes when it is expected to end nearer the budget's end than
+/// the render would without it, i.e. when it would overrun by less than stopping after the
+/// ones before it underruns. The render then ends within half a period of the budget,
+/// either side, instead of up to a whole period early.
+pub(crate) fn worth_starting(period: f64, queued: u32, left: f64) -> bool {
+    let end_with = period * queued as f64;
+    let end_without = period * (queued - 1) as f64;
+    end_with - left < left - end_without
 }
 
 impl Schedule for EveryPass {
@@ -109,16 +142,8 @@ impl Schedule for EveryPass {
                 if self.started > 0 {
                     return None;
                 }
-            } else {
-                // Start a pass only if it is expected to finish within the budget: passes
-                // finish one period apart, and a new one finishes after the one in flight.
-                // The period is the longest of the last few (the mean so far would carry the
-                // first pass's warm-up and stop a short budget early).
-                let period = self.recent_periods.iter().copied().max().unwrap_or_default();
-                let queued = 1 + pending.is_some() as u32;
-                if (period * queued).as_secs_f64() > left {
-                    return None;
-                }
+            } else if !worth_starting(period(&self.recent_periods), 1 + pending.is_some() as u32, left) {
+                return None;
             }
         }
         let pass = self.next_pass as u32;
@@ -141,10 +166,8 @@ impl Schedule for EveryPass {
     }
 
     fn unit_done(&mut self) {
-        if self.recent_periods.len() == 4 {
-            self.recent_periods.pop_front();
-        }
-        self.recent_periods.push_back(self.last_completion.elapsed());
+        self.completed += 1;
+        record_period(&mut self.recent_periods, self.completed, self.last_completion.elapsed());
         self.last_completion = Instant::now();
     }
 
@@ -162,6 +185,59 @@ impl Schedule for EveryPass {
             film: self.film,
             components: self.components,
             auto: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The time budget's planning: a pass starts when it ends nearer the budget than stopping
+    /// does. Catches a rule that stops a whole period early (the old one: `left` 0.9 periods
+    /// refused) or that starts a pass with no time for it (`left` 0.4 periods accepted).
+    #[test]
+    fn a_pass_starts_when_it_ends_nearer_the_budget() {
+        // One pass at a time (nothing on the GPU): the pass ends at `period`.
+        assert!(worth_starting(1.0, 1, 0.9));
+        assert!(worth_starting(1.0, 1, 0.6));
+        assert!(!worth_starting(1.0, 1, 0.4));
+        assert!(!worth_starting(1.0, 1, 0.0));
+        assert!(!worth_starting(1.0, 1, -0.2));
+        // With a pass still on the GPU, a new one ends after it, two periods from now.
+        assert!(worth_starting(1.0, 2, 1.6));
+        assert!(!worth_starting(1.0, 2, 1.4));
+        // A budget of passes `period` long, planned one at a time from the start, ends
+        // within half a period of the budget, whatever the budget and the period.
+        for period in [0.01, 0.3, 2.5] {
+            for i in 1..200 {
+                let budget = period * i as f64 / 16.0;
+                let mut end = 0.0;
+                while worth_starting(period, 1, budget - end) {
+                    end += period;
+                }
+                assert!(
+                    (end - budget).abs() <= period / 2.0 + 1e-12,
+                    "{period} {budget}: ends at {end}"
+                );
+            }
+        }
+    }
+
+    /// The planning period leaves the warm-up out once a later pass shows the steady cost,
+    /// and follows the recent passes after that. Catches the warm-up pass (here 3x the
+    /// others) planning a short budget to stop early, and a window that never forgets.
+    #[test]
+    fn the_period_leaves_the_warm_up_out() {
+        let mut recent = VecDeque::new();
+        let mut means = Vec::new();
+        for (i, ms) in [300, 100, 120, 140, 160, 180].into_iter().enumerate() {
+            record_period(&mut recent, i as u64 + 1, Duration::from_millis(ms));
+            means.push(period(&recent));
+        }
+        let expect = [0.3, 0.1, 0.11, 0.12, 0.13, 0.15];
+        for (m, e) in means.iter().zip(expect) {
+            assert!((m - e).abs() < 1e-9, "{means:?}");
         }
     }
 }
