@@ -1164,3 +1164,38 @@ fn injected_nans_are_counted_through_every_output() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(header("m.exr"), expected(5), "merged: EXR header");
 }
+
+/// With no `--method` a render is `auto`'s, and `--spp N` gives it N path-traced samples per
+/// pixel in rounds of 16 (rounded up), each with one `vbl` pass; the budget is in the EXR
+/// header. Catches the default drifting back to a single estimator, `--spp` counted as
+/// rounds (20 rounds: 320 samples) and a header without the budget.
+#[test]
+fn the_default_method_is_auto_and_spp_counts_its_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::write_glass_ball_scene(dir.path());
+    let out = dir.path().join("default.exr");
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--spp",
+        "20",
+    ];
+    args.extend_from_slice(&SMALL_GLASS_BALL);
+    let o = beamlight(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // 20 samples are two rounds of 16 and two `vbl` passes. Under a point lamp with glass the
+    // path tracer serves `direct` alone (the rest is beyond it): all 32 samples are its.
+    assert!(
+        stderr(&o).contains("done: auto ") && stderr(&o).contains("pt 32 spp and vbl 2 passes in 2 units"),
+        "{}",
+        stderr(&o)
+    );
+    let (_, meta) = read_exr(&out).unwrap();
+    assert!(meta.contains(&("beamlight.method".into(), "auto".into())), "{meta:?}");
+    assert!(
+        meta.contains(&("beamlight.budget".into(), "passes 2".into())),
+        "{meta:?}"
+    );
+}

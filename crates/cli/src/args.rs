@@ -130,13 +130,16 @@ pub(crate) struct RenderArgs {
     /// Output OpenEXR file (float32 linear RGB).
     #[arg(short, long)]
     pub(crate) output: PathBuf,
-    #[arg(long, value_enum, default_value = "vbl")]
+    /// The estimator (`auto`, the default: each component from the path tracer and `vbl`,
+    /// whichever lowers its error faster).
+    #[arg(long, value_enum, default_value = "auto")]
     pub(crate) method: MethodArg,
     /// Number of progressive passes, or a range `A..B` of the global pass sequence (one part
     /// of a render split across machines: its accumulators are written for `beamlight merge`).
     #[arg(long, conflicts_with_all = ["spp", "time"])]
     pub(crate) passes: Option<runs::PassRange>,
-    /// Samples per pixel (for `pt`, the same as passes).
+    /// Camera samples per pixel: passes of one sample each, but for `auto`, rounds of 16
+    /// path-traced samples and one `vbl` pass (rounded up).
     #[arg(long, conflicts_with = "time")]
     pub(crate) spp: Option<u64>,
     /// Wall-clock budget in seconds, start-up included.

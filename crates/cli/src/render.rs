@@ -4,7 +4,7 @@ use crate::{check_output_path, runs};
 use anyhow::{Context, Result, bail};
 use beamlight_render::{
     Budget, Film, Method, RenderOptions,
-    auto::{AutoReport, AutoSums},
+    auto::{AutoReport, AutoSums, PT_SPP_PER_ROUND},
     components::Component,
     many_lights::{Discards, ManyLightSettings},
     output,
@@ -20,6 +20,10 @@ use crate::args::*;
 use crate::report::{print_stats, stats_json};
 
 pub(crate) const DEFAULT_PASSES: u64 = 64;
+/// `auto`'s rounds when no budget is given: each one `vbl` pass and
+/// [`PT_SPP_PER_ROUND`] path-traced samples, so 16 rounds cost about what 64 `vbl` passes
+/// alone would.
+pub(crate) const DEFAULT_AUTO_ROUNDS: u64 = 16;
 
 /// The shortest time between two progress lines when standard error is not a terminal.
 pub(crate) const PROGRESS_EVERY: Duration = Duration::from_secs(10);
@@ -53,7 +57,13 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         bail!("--alpha must lie strictly between 0 and 1, got {}", args.alpha);
     }
     let range_start = args.passes.and_then(|r| r.start);
-    let pass_count = args.passes.map(|r| r.end - r.start.unwrap_or(0)).or(args.spp);
+    // `--spp N`: N camera samples per pixel. A pass of every method but `auto` is one; an
+    // `auto` round is `PT_SPP_PER_ROUND` path-traced ones (and one `vbl` pass).
+    let spp_passes = args.spp.map(|n| match method {
+        Method::Auto => n.div_ceil(PT_SPP_PER_ROUND as u64),
+        _ => n,
+    });
+    let pass_count = args.passes.map(|r| r.end - r.start.unwrap_or(0)).or(spp_passes);
     if range_start.is_some() && args.resume.is_some() {
         bail!("--resume continues a whole render; a pass range (--passes A..B) starts at A");
     }
@@ -63,6 +73,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         (None, Some(t)) if t.is_finite() && t > 0.0 => Budget::Time(Duration::from_secs_f64(t)),
         (None, Some(t)) => bail!("--time must be a positive number of seconds, got {t}"),
         (None, None) if args.resume.is_some() => bail!("--resume needs the total --passes N or a --time budget"),
+        (None, None) if method == Method::Auto => Budget::Passes(DEFAULT_AUTO_ROUNDS),
         (None, None) => Budget::Passes(DEFAULT_PASSES),
     };
     for (flag, v) in [("--width", args.width), ("--height", args.height)] {
@@ -213,6 +224,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
     let outputs = Outputs {
         args: &args,
         method,
+        budget: opts.budget,
         backend: &backend,
     };
     let mut last_write = Instant::now();
@@ -306,11 +318,22 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         );
         return Err(runs::Interrupted.into());
     }
+    // What the render amounts to: samples per pixel (`pt`), passes (the many-light methods),
+    // or each of `auto`'s estimators' most (a component's samples and passes; the path
+    // tracer's may serve several components at once).
+    let amount = match (&result.auto, method) {
+        (Some(r), _) => format!(
+            "pt {} spp and vbl {} passes in {} units",
+            r.pt_spp.iter().max().unwrap_or(&0),
+            r.vbl_passes.iter().max().unwrap_or(&0),
+            result.passes
+        ),
+        (None, Method::Pt) => format!("{} spp", result.passes),
+        (None, _) => format!("{} passes", result.passes),
+    };
     eprintln!(
-        "done: {} in {secs:.2} s, {} spp, {:.3} Msamples/s -> {}",
+        "done: {} in {secs:.2} s, {amount} -> {}",
         method.name(),
-        result.passes,
-        (result.passes * width as u64 * height as u64) as f64 / secs.max(1e-9) / 1e6,
         args.output.display()
     );
     Ok(())
@@ -320,6 +343,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
 pub(crate) struct Outputs<'a> {
     pub(crate) args: &'a RenderArgs,
     pub(crate) method: Method,
+    pub(crate) budget: Budget,
     pub(crate) backend: &'a str,
 }
 
@@ -338,6 +362,7 @@ impl Outputs<'_> {
             ("beamlight.method", self.method.name().to_string()),
             ("beamlight.seed", args.seed.to_string()),
             ("beamlight.render_seconds", format!("{:.3}", elapsed.as_secs_f64())),
+            ("beamlight.budget", self.budget.to_string()),
             ("beamlight.scene", args.scene.display().to_string()),
             ("beamlight.backend", self.backend.to_string()),
         ];

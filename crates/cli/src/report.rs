@@ -106,6 +106,7 @@ pub(crate) fn stats_json(
         "height": opts.height,
         "seed": opts.seed,
         "passes": result.passes,
+        "budget": opts.budget.to_string(),
         "process_seconds": process.as_secs_f64(),
         "startup_seconds": startup.as_secs_f64(),
         "render_seconds": result.elapsed.as_secs_f64(),

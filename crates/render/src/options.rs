@@ -16,6 +16,17 @@ pub enum Budget {
     Time(Duration),
 }
 
+impl std::fmt::Display for Budget {
+    /// As the EXR header and `--stats-json` record it: `passes N` or `time T s` (start-up
+    /// included).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Budget::Passes(n) => write!(f, "passes {n}"),
+            Budget::Time(t) => write!(f, "time {:.3} s", t.as_secs_f64()),
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
     pub method: Method,
