@@ -560,9 +560,7 @@ fn a_kernel_not_compiled_is_an_error() {
         )
     };
     assert!(run(GatherKernel::VrlMedia).is_ok());
-    let err = run(GatherKernel::VblMedia)
-        .err()
-        .expect("a kernel not compiled must not run");
+    let err = run(GatherKernel::VblMedia).expect_err("a kernel not compiled must not run");
     assert!(err.to_string().contains("vbl_media.wgsl"), "{err}");
 }
 
