@@ -909,5 +909,24 @@ fn binary_backends_agree_per_layer_and_the_gpu_runs_the_gathers() {
             assert_eq!(seconds(&cpu_stats), 0.0, "{method} --backend cpu: GPU time in {c}");
         }
         compare_layers(&format!("{method} (binary)"), w, &cpu, &gpu);
+        // `--backend auto` measures a trial pass on each side and renders on the faster one,
+        // saying so with the times; its image is exactly that side's (the trial passes are
+        // thrown away). Catches a trial pass that leaks into the image, and a choice that does
+        // not say it was measured or is not the one it reports.
+        let (auto, _, auto_err) = run("auto");
+        let line = auto_err
+            .lines()
+            .find(|l| l.starts_with("beamlight: "))
+            .unwrap_or_default();
+        assert!(line.contains("measured: a 20x16"), "{line}");
+        let chosen = if line.contains("backend gpu (") { &gpu } else { &cpu };
+        assert!(
+            line.contains("backend gpu (") || line.contains("backend cpu ("),
+            "{line}"
+        );
+        assert!(
+            &auto == chosen,
+            "{method} --backend auto: not the image of the side it chose ({line})"
+        );
     }
 }

@@ -127,6 +127,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
     // What `--backend auto` does for each method: the same decision a render makes.
     use beamlight_render::backend::{AutoChoice, adapter_lines, auto_choice};
     let mut on_gpu: Vec<&str> = Vec::new();
+    let mut measured: Vec<&str> = Vec::new();
     let mut on_cpu: Vec<String> = Vec::new();
     let mut adapter = None;
     for m in Method::ALL {
@@ -135,18 +136,27 @@ pub(crate) fn info(path: &Path) -> Result<()> {
                 on_gpu.push(m.name());
                 adapter = Some(name);
             }
+            AutoChoice::Measure(name) => {
+                measured.push(m.name());
+                adapter = Some(name);
+            }
             AutoChoice::Cpu(why) => on_cpu.push(format!("{} ({why})", m.name())),
         }
     }
-    let gpu_part = match adapter {
-        Some(name) => format!("the gathers of {} on {name}; ", on_gpu.join(", ")),
-        None => String::new(),
-    };
-    outln!(
-        out,
-        "backend     `--backend auto`: {gpu_part}on the CPU: {}",
-        on_cpu.join("; ")
-    );
+    let mut parts = Vec::new();
+    if let Some(name) = &adapter {
+        if !on_gpu.is_empty() {
+            parts.push(format!("the gathers of {} on {name}", on_gpu.join(", ")));
+        }
+        if !measured.is_empty() {
+            parts.push(format!(
+                "{}: on {name} or the CPU, whichever ran a small trial pass of the render faster (the render's first line says which, with the times)",
+                measured.join(", ")
+            ));
+        }
+    }
+    parts.push(format!("on the CPU: {}", on_cpu.join("; ")));
+    outln!(out, "backend     `--backend auto`: {}", parts.join("; "));
     for line in adapter_lines() {
         outln!(out, "{line}");
     }

@@ -119,8 +119,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         );
     }
     let opening = Instant::now();
-    let (gpu, backend) =
-        beamlight_render::backend::open(args.backend.0, method, &ts.scene).map_err(anyhow::Error::msg)?;
+    let device = beamlight_render::backend::open(args.backend.0, method, &ts.scene).map_err(anyhow::Error::msg)?;
     let gpu_time = opening.elapsed();
     if args.stats {
         eprintln!(
@@ -130,12 +129,6 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
             gpu_time.as_secs_f64()
         );
     }
-    eprintln!(
-        "beamlight: {} ({} triangles), {width}x{height}, method {}, backend {backend}",
-        args.scene.display(),
-        ts.scene.triangles.len(),
-        method.name()
-    );
 
     let opts = RenderOptions {
         method,
@@ -173,15 +166,41 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
             components: [true; Component::ALL.len()],
             inject_nan: args.inject_nan,
         },
-        gpu,
+        gpu: device.gpu.clone(),
     };
+    // `--backend auto` with a device worth trying: one small pass on each side decides.
+    let mut opts = opts;
+    let backend = match (&device.gpu, device.measure) {
+        (Some(gpu), true) => {
+            let trial = beamlight_render::backend::measure(&ts, &opts, gpu).map_err(anyhow::Error::msg)?;
+            let (w, h) = trial.size;
+            let measured = format!(
+                "measured: a {w}x{h} {} pass took {:.3} s on the CPU, {:.3} s on the GPU",
+                method.name(),
+                trial.cpu,
+                trial.gpu,
+            );
+            if trial.gpu_wins() {
+                format!("{} ({measured})", device.line)
+            } else {
+                opts.gpu = None;
+                format!("cpu ({measured}, {})", gpu.gpu.describe())
+            }
+        }
+        _ => device.line,
+    };
+    eprintln!(
+        "beamlight: {} ({} triangles), {width}x{height}, method {}, backend {backend}",
+        args.scene.display(),
+        ts.scene.triangles.len(),
+        method.name()
+    );
     // Checkpoints and pass ranges: what identifies this render, and where it resumes.
     let fingerprint = runs::fingerprint(&ts.scene, &opts);
     let resumed = match &args.resume {
         Some(path) => Some(runs::read_checkpoint(path, &fingerprint)?),
         None => None,
     };
-    let mut opts = opts;
     let mut budget = budget;
     if let Some(acc) = &resumed {
         opts.first_pass = acc.end_pass();

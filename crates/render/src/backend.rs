@@ -22,6 +22,9 @@ pub enum AutoChoice {
     Cpu(String),
     /// The gathers go to this adapter.
     Gpu(String),
+    /// The device is opened and one small pass on each side, before the render, decides
+    /// ([`measure`]).
+    Measure(String),
 }
 
 /// [`Backend::Auto`]'s choice for `method` given the machine's Vulkan adapters.
@@ -33,30 +36,35 @@ pub fn auto_choice(method: Method) -> AutoChoice {
         return AutoChoice::Cpu("no Vulkan adapter".into());
     };
     let cpu_adapter = beamlight_gpu::device::is_cpu_adapter(&a);
-    // On a CPU adapter (lavapipe) the kernels share the cores with the CPU estimators: measured
-    // with `cargo bench -p beamlight-gpu`, the vbl kernels (numerical integration over each
-    // sphere, mostly arithmetic) run 1.5-2.1x faster than the CPU twins on both cores, the vrl
-    // ones (mostly BVH traversal, which diverges across SIMD lanes) 0.4-0.65x as fast. `auto`
-    // spends most of its time path tracing on the CPU: opening a CPU adapter (about 2 s with
-    // lavapipe) costs more than its share of gathers gains.
+    // `auto` spends most of its time path tracing on the CPU, and on a CPU adapter (lavapipe)
+    // the kernels share the cores with it: opening the device (about 1 s with lavapipe, its
+    // kernels compiled by LLVM) costs more than its share of gathers gains.
     if cpu_adapter && method == Method::Auto {
         return AutoChoice::Cpu(format!(
             "the only Vulkan adapter, {}, is a CPU adapter: `auto` path traces most of the time, and opening it costs more than its gathers gain",
             a.name
         ));
     }
-    if cpu_adapter && method.virtual_lights() != Some(crate::many_lights::VirtualLights::Beams) {
-        return AutoChoice::Cpu(format!(
-            "the only Vulkan adapter, {}, is a CPU adapter: the CPU estimators of this method are faster on the same cores",
-            a.name
-        ));
+    if method == Method::Auto {
+        return AutoChoice::Gpu(a.name);
     }
-    AutoChoice::Gpu(a.name)
+    // Which side is faster depends on the adapter, the cores and the scene: measured with
+    // `cargo bench -p beamlight-gpu`, lavapipe ran the `vbl` kernels 1.5-2.1x faster than
+    // the CPU twins on both cores and the `vrl` ones 0.4-0.65x as fast, and the committed
+    // bench had lavapipe's `vbl` behind the CPU on two scenes of three. So a trial decides.
+    AutoChoice::Measure(a.name)
 }
 
-/// The device of a render: the GPU its gathers run on (none: the CPU alone) and a line saying
-/// what runs where and why.
-pub fn open(backend: Backend, method: Method, scene: &Scene) -> Result<(Option<Arc<GpuBackend>>, String), String> {
+/// A render's device: the GPU its gathers run on (none: the CPU alone), a line saying what
+/// runs where and why, and whether [`measure`] should still decide between the two.
+pub struct Device {
+    pub gpu: Option<Arc<GpuBackend>>,
+    pub line: String,
+    pub measure: bool,
+}
+
+/// Opens the device of a render.
+pub fn open(backend: Backend, method: Method, scene: &Scene) -> Result<Device, String> {
     let has_kernels = method.has_gpu_kernels();
     let gathers = match method.virtual_lights() {
         Some(crate::many_lights::VirtualLights::Beams) => "VBL/VSL gathers",
@@ -65,8 +73,13 @@ pub fn open(backend: Backend, method: Method, scene: &Scene) -> Result<(Option<A
     // Only the method's kernels are compiled (a method without any opens none).
     let kernels = method.virtual_lights().map(crate::many_lights::gpu_kernels);
     let open = || GpuBackend::open_for(scene, kernels.as_ref().map_or(&[][..], |k| &k[..])).map(Arc::new);
+    let fixed = |gpu, line| Device {
+        gpu,
+        line,
+        measure: false,
+    };
     Ok(match backend {
-        Backend::Cpu => (None, "cpu".to_string()),
+        Backend::Cpu => fixed(None, "cpu".to_string()),
         Backend::Gpu => {
             let g = open().map_err(|e| format!("--backend gpu: {e}"))?;
             let what = if has_kernels {
@@ -75,19 +88,96 @@ pub fn open(backend: Backend, method: Method, scene: &Scene) -> Result<(Option<A
                 "idle: this method has no GPU kernels yet and runs on the CPU".to_string()
             };
             let name = format!("gpu ({}: {what})", g.gpu.describe());
-            (has_kernels.then_some(g), name)
+            fixed(has_kernels.then_some(g), name)
         }
         Backend::Auto => match auto_choice(method) {
-            AutoChoice::Cpu(why) => (None, format!("cpu ({why})")),
-            AutoChoice::Gpu(_) => match open() {
+            AutoChoice::Cpu(why) => fixed(None, format!("cpu ({why})")),
+            choice => match open() {
                 Ok(g) => {
                     let name = format!("gpu ({}: {gathers})", g.gpu.describe());
-                    (Some(g), name)
+                    Device {
+                        gpu: Some(g),
+                        line: name,
+                        measure: matches!(choice, AutoChoice::Measure(_)),
+                    }
                 }
-                Err(e) => (None, format!("cpu ({e})")),
+                Err(e) => fixed(None, format!("cpu ({e})")),
             },
         },
     })
+}
+
+/// A trial ([`measure`]): the seconds of a pass of `size` pixels on each side.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Trial {
+    pub cpu: f64,
+    pub gpu: f64,
+    pub size: (u32, u32),
+}
+
+impl Trial {
+    /// Keep the GPU when its pass was faster.
+    pub fn gpu_wins(&self) -> bool {
+        self.gpu < self.cpu
+    }
+}
+
+/// The trial images' sides: the render's, at most these many pixels wide and high. A pass's
+/// cost is mostly its gathers, in proportion to the pixels, so small passes show which side is
+/// faster at a small price; the larger one only when the smaller was a close call (within
+/// [`CLEAR`]), as a 32x32 pass of `vbl` on lavapipe is (fixed costs per pass weigh more
+/// there): measured on the glossy fog box, 0.050 s on the CPU, 0.052 s on the GPU, while at
+/// 96x96 the GPU's passes were 11 % faster (283 vs 317 ms) and at 256x256 21 %.
+pub const TRIAL_SIZES: [u32; 2] = [32, 64];
+
+/// A trial whose sides differ by more than this factor decides at once.
+const CLEAR: f64 = 1.5;
+
+/// [`AutoChoice::Measure`]: one pass of `opts`' method on each side, at most
+/// [`TRIAL_SIZES`]`[0]`² pixels and otherwise the render's settings, and again at the larger
+/// size when that was a close call. The GPU first runs an 8x8 pass: its first dispatches pay
+/// for warming up (0.13 s with lavapipe, more than a 32x32 pass), which the render's passes
+/// do not. The passes are thrown away: only the render's passes make the image, which is
+/// therefore the one a render on the winning side alone gives.
+pub fn measure(
+    ts: &beamlight_trace::TraceScene,
+    opts: &crate::RenderOptions,
+    gpu: &GpuBackend,
+) -> Result<Trial, String> {
+    use crate::source::{ManyLights, N, PassOutput, PassSource};
+    let source = |gpu, (w, h): (u32, u32)| ManyLights {
+        ts,
+        settings: opts.method.many_light_settings(ts, &opts.many_lights),
+        width: w,
+        height: h,
+        seed: opts.seed,
+        gpu,
+    };
+    let pass = opts.first_pass as u32;
+    let time = |s: &ManyLights| -> Result<f64, String> {
+        let clock = std::time::Instant::now();
+        s.start(pass, [true; N], PassOutput::new((s.width * s.height) as usize))?
+            .finish()?;
+        Ok(clock.elapsed().as_secs_f64())
+    };
+    let size = |side: u32| (opts.width.min(side), opts.height.min(side));
+    time(&source(Some(gpu), size(8)))?;
+    let mut trial = Trial::default();
+    for (i, side) in TRIAL_SIZES.into_iter().enumerate() {
+        trial = Trial {
+            cpu: time(&source(None, size(side)))?,
+            gpu: time(&source(Some(gpu), size(side)))?,
+            size: size(side),
+        };
+        let ratio = trial.cpu / trial.gpu.max(1e-9);
+        if i + 1 == TRIAL_SIZES.len()
+            || !(1.0 / CLEAR..=CLEAR).contains(&ratio)
+            || size(side) == (opts.width, opts.height)
+        {
+            break;
+        }
+    }
+    Ok(trial)
 }
 
 /// `beamlight info`'s lines about the machine's Vulkan adapters: each one, and the first one's
