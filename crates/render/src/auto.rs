@@ -80,6 +80,9 @@ enum Choice {
     Pt(u32, [bool; N]),
     /// One `vbl` pass over these components.
     Vbl([bool; N]),
+    /// One `vbl` pass over every needed component on a small image ([`probe_size`]), thrown
+    /// away: what a pass costs, before one is run.
+    Probe,
 }
 
 /// Measured costs, running means.
@@ -94,6 +97,9 @@ struct Costs {
     vbl_passes: u64,
     vbl_component: [f64; N],
     vbl_component_passes: [u64; N],
+    /// A whole `vbl` pass's seconds as the probe predicts them (its seconds scaled by the
+    /// pixels: a pass's cost is mostly its gathers), until a pass is measured.
+    vbl_predicted: Option<f64>,
 }
 
 impl Costs {
@@ -112,6 +118,16 @@ impl Costs {
                 *n += spp;
             }
             None => self.pt.push((*mask, seconds, spp)),
+        }
+    }
+
+    /// What a `vbl` pass over every needed component costs: measured, or predicted by the
+    /// probe, or unknown.
+    fn vbl_pass(&self, needed: &[bool; N]) -> Option<f64> {
+        if self.vbl_passes > 0 {
+            Some(choice_seconds(Choice::Vbl(*needed), self))
+        } else {
+            self.vbl_predicted
         }
     }
 
@@ -158,6 +174,8 @@ pub struct Auto {
     last_combined: Instant,
     /// A pass budget (a fixed schedule) rather than a time one.
     fixed: bool,
+    /// The render's pixels per pixel of the probe's image.
+    probe_scale: f64,
     /// Units planned, and units of the checkpoint continued (the combined films count both).
     planned: u64,
     units: u64,
@@ -167,6 +185,15 @@ pub struct Auto {
 /// The sources' indices in [`Auto`]'s steps.
 pub const PT: usize = 0;
 pub const VBL: usize = 1;
+pub const PROBE: usize = 2;
+
+/// The probe's image: the render's, at most this many pixels wide and high.
+const PROBE_SIDE: u32 = 32;
+
+/// The image size of `auto`'s probe of a `vbl` pass's cost for a render of `size`.
+pub fn probe_size((w, h): (u32, u32)) -> (u32, u32) {
+    (w.min(PROBE_SIDE), h.min(PROBE_SIDE))
+}
 
 impl Auto {
     /// A schedule for a `w` × `h` render whose first round is `first_round`, continuing
@@ -202,6 +229,10 @@ impl Auto {
             combined: Combined::new(w, h),
             last_combined: Instant::now(),
             fixed,
+            probe_scale: {
+                let (pw, ph) = probe_size((w, h));
+                (w as f64 * h as f64) / (pw as f64 * ph as f64)
+            },
             planned: 0,
             units: 0,
             units_before: resume.map_or(0, |(_, units)| units),
@@ -229,6 +260,12 @@ impl Auto {
                     components,
                 }]
             }
+            // The pass `vbl` would run next: its radius, its light paths.
+            Choice::Probe => vec![Step {
+                source: PROBE,
+                pass: self.est.vbl_next as u32,
+                components: self.est.needed,
+            }],
         }
     }
 }
@@ -243,7 +280,8 @@ impl Schedule for Auto {
                     - pending.map_or(0.0, |s| {
                         let choice = match s.source {
                             PT => Choice::Pt(1, s.components),
-                            _ => Choice::Vbl(s.components),
+                            VBL => Choice::Vbl(s.components),
+                            _ => Choice::Probe,
                         };
                         choice_seconds(choice, &self.costs)
                     });
@@ -274,6 +312,13 @@ impl Schedule for Auto {
     fn absorb(&mut self, step: &Step, finished: &Finished, seconds: f64) {
         let mask = step.components;
         let out = &finished.out.components;
+        if step.source == PROBE {
+            // Its image is thrown away (another image size, and the render's `vbl` passes are
+            // what the combination counts).
+            self.costs.vbl_predicted = Some(seconds * self.probe_scale);
+            self.report.vbl_seconds += seconds;
+            return;
+        }
         if step.source == PT {
             // Seven films per sample cost about a tenth of a 96² sample on one thread: the
             // ones this sample estimated, in parallel.
@@ -374,18 +419,42 @@ fn round_choices(est: &AutoSums, r: u64) -> Vec<Choice> {
     steps
 }
 
+/// Whether `vbl` is measured, given what a pass over every needed component costs (`None`:
+/// not known yet).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Exploration {
+    /// Find out what a pass costs first, on a small image.
+    Probe,
+    /// Run passes until [`MIN_VBL_PASSES`] are in: they fit in [`EXPLORE_SHARE`] of the
+    /// budget, or a component has no other estimator (`vbl_only_needed`).
+    Measure,
+    /// Leave `vbl` out: its passes would not fit.
+    Skip,
+}
+
+fn exploration(pass: Option<f64>, vbl_only_needed: bool, limit: Duration) -> Exploration {
+    match pass {
+        _ if vbl_only_needed => Exploration::Measure,
+        None => Exploration::Probe,
+        Some(seconds) if seconds * MIN_VBL_PASSES as f64 <= EXPLORE_SHARE * limit.as_secs_f64() => Exploration::Measure,
+        Some(_) => Exploration::Skip,
+    }
+}
+
 /// Predicted seconds of a step.
 fn choice_seconds(choice: Choice, costs: &Costs) -> f64 {
     match choice {
         Choice::Pt(k, mask) => k as f64 * costs.pt_per_spp(&mask).unwrap_or(0.0),
         Choice::Vbl(mask) => costs.shared() + (0..N).filter(|&k| mask[k]).map(|k| costs.component(k)).sum::<f64>(),
+        // Measured as it runs; small next to a pass.
+        Choice::Probe => 0.0,
     }
 }
 
 /// The next step with a time budget: first measure both estimators (two `pt` samples of
 /// every component it serves, two of each kind of restricted slice, then
 /// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance and a
-/// cost), then whichever lowers the modelled error fastest per second: a `pt` slice over all
+/// cost, if they fit: see [`exploration`]), then whichever lowers the modelled error fastest per second: a `pt` slice over all
 /// its components, over the medium-first or the surface-first ones, or over one alone
 /// (restricted, its samples are cheaper and, in homogeneous media, less noisy:
 /// `pt::PathTracerSettings::components`), or a `vbl` pass over the components worth their
@@ -416,11 +485,15 @@ fn next_choice(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Durati
     if let Some(unmeasured) = slices.iter().find(|m| costs.pt_per_spp(m).is_none()) {
         return Some(Choice::Pt(2, *unmeasured));
     }
-    // Measuring `vbl` takes at most a tenth of the budget (after its first pass, which shows
-    // what a pass costs), unless a component has no other estimator.
-    let explore = costs.vbl_passes == 0
-        || (0..N).any(|k| needed[k] && vbl_only[k])
-        || choice_seconds(Choice::Vbl(*needed), costs) * MIN_VBL_PASSES as f64 <= EXPLORE_SHARE * limit.as_secs_f64();
+    // Measuring `vbl` takes at most a tenth of the budget, unless a component has no other
+    // estimator. What a pass costs is known from a probe on a small image before the first
+    // pass: a budget too short to measure `vbl` does not pay for a pass it could not use
+    // (fewer than MIN_VBL_PASSES get no weight).
+    let vbl_only_needed = (0..N).any(|k| needed[k] && vbl_only[k]);
+    let explore = match exploration(costs.vbl_pass(needed), vbl_only_needed, limit) {
+        Exploration::Probe if any_vbl => return Some(Choice::Probe),
+        e => e == Exploration::Measure,
+    };
     let vbl_runs = est.vbl.iter().map(|f| f.samples).max().unwrap_or(0);
     if any_vbl && vbl_runs < MIN_VBL_PASSES && costs.vbl_passes < MIN_VBL_PASSES && explore {
         return Some(Choice::Vbl(*needed));
@@ -475,4 +548,31 @@ fn next_choice(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Durati
     }
     let spp = ((slice / per_spp(&pt_best)).round() as u32).max(1);
     Some(Choice::Pt(spp, pt_best))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `vbl` is measured only when its passes fit in a tenth of the budget, which a probe
+    /// tells before the first pass; a component only `vbl` serves is measured whatever it
+    /// costs. Catches the old rule (a first pass whatever the budget: at 4 s a 0.4-s pass,
+    /// then never weighed) and a probe that never lets `vbl` in.
+    #[test]
+    fn vbl_is_measured_when_its_passes_fit() {
+        let s = Duration::from_secs_f64;
+        assert_eq!(exploration(None, false, s(4.0)), Exploration::Probe);
+        assert_eq!(exploration(None, true, s(4.0)), Exploration::Measure);
+        // Four passes of 0.4 s: 1.6 s, a tenth of 16 s but not of 4 s.
+        assert_eq!(exploration(Some(0.4), false, s(4.0)), Exploration::Skip);
+        assert_eq!(exploration(Some(0.4), false, s(16.0)), Exploration::Measure);
+        assert_eq!(exploration(Some(0.4), true, s(4.0)), Exploration::Measure);
+    }
+
+    /// The probe's image is the render's, at most 32 pixels a side.
+    #[test]
+    fn the_probe_is_small() {
+        assert_eq!(probe_size((96, 64)), (32, 32));
+        assert_eq!(probe_size((20, 16)), (20, 16));
+    }
 }

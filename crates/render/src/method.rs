@@ -61,8 +61,9 @@ impl Method {
     }
 
     /// The pass sources a render with this method draws from: one for every method but
-    /// `auto`, whose two are the path tracer (its components apart) and `vbl` with a seed of
-    /// its own, in the order of [`auto::PT`] and [`auto::VBL`].
+    /// `auto`, whose are the path tracer (its components apart), `vbl` with a seed of its own
+    /// and the same `vbl` on a small image (its probe of a pass's cost), in the order of
+    /// [`auto::PT`], [`auto::VBL`] and [`auto::PROBE`].
     pub fn sources<'a>(self, inputs: SourceInputs<'a>) -> Vec<Box<dyn PassSource + 'a>> {
         let path_tracer = |split| -> Box<dyn PassSource + 'a> {
             Box::new(PathTracer {
@@ -74,20 +75,28 @@ impl Method {
                 split,
             })
         };
-        let many_lights = |method: Method, seed| -> Box<dyn PassSource + 'a> {
+        let many_lights = |method: Method, seed, (width, height): (u32, u32)| -> Box<dyn PassSource + 'a> {
             Box::new(ManyLights {
                 ts: inputs.ts,
                 settings: method.many_light_settings(inputs.ts, inputs.many_lights),
-                width: inputs.width,
-                height: inputs.height,
+                width,
+                height,
                 seed,
                 gpu: inputs.gpu,
             })
         };
+        let size = (inputs.width, inputs.height);
         match self {
             Method::Pt => vec![path_tracer(inputs.split)],
-            Method::Vrl | Method::VrlClamped | Method::Vbl => vec![many_lights(self, inputs.seed)],
-            Method::Auto => vec![path_tracer(true), many_lights(Method::Vbl, auto::vbl_seed(inputs.seed))],
+            Method::Vrl | Method::VrlClamped | Method::Vbl => vec![many_lights(self, inputs.seed, size)],
+            Method::Auto => {
+                let seed = auto::vbl_seed(inputs.seed);
+                vec![
+                    path_tracer(true),
+                    many_lights(Method::Vbl, seed, size),
+                    many_lights(Method::Vbl, seed, auto::probe_size(size)),
+                ]
+            }
         }
     }
 

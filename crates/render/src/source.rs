@@ -36,11 +36,16 @@ impl PassOutput {
         }
     }
 
-    /// Makes room for the components (`split`) or drops them.
-    fn split(&mut self, split: bool) {
-        let pixels = self.beauty.len();
+    /// Sizes the buffers for an image of `pixels` (the loop lends a source buffers another
+    /// source may have used: `auto`'s probe renders a smaller image) and makes room for the
+    /// components (`split`) or drops them.
+    fn fit(&mut self, pixels: usize, split: bool) {
+        self.beauty.resize(pixels, Rgb::ZERO);
         self.components
             .resize_with(if split { N } else { 0 }, || vec![Rgb::ZERO; pixels]);
+        for c in &mut self.components {
+            c.resize(pixels, Rgb::ZERO);
+        }
     }
 }
 
@@ -111,7 +116,7 @@ impl PassSource for PathTracer<'_> {
         components: Components,
         mut out: PassOutput,
     ) -> Result<Box<dyn InFlight + 'a>, String> {
-        out.split(self.split);
+        out.fit((self.width * self.height) as usize, self.split);
         let settings = PathTracerSettings {
             components: both(components, self.settings.components),
             ..self.settings
@@ -165,7 +170,7 @@ impl PassSource for ManyLights<'_> {
         components: Components,
         mut out: PassOutput,
     ) -> Result<Box<dyn InFlight + 'a>, String> {
-        out.split(true);
+        out.fit((self.width * self.height) as usize, true);
         let settings = ManyLightSettings {
             components: both(components, self.settings.components),
             ..self.settings
