@@ -13,6 +13,17 @@ use crate::source::N;
 /// three heavy-tailed passes says too little.
 pub const MIN_VBL_PASSES: u64 = 4;
 
+/// Path-traced samples of a component before they are mixed with `vbl`'s estimate of it
+/// (alone, with no `vbl` estimate, they count from the first). Where light reaches a
+/// component only through glass the path tracer's samples are heavy-tailed, and the variance
+/// of a few dozen says as little as that of two or three `vbl` passes: in `lamp_in_glass`
+/// (96², 4 s) `Lmm` got `pt` weight 0.04 from 21 samples, and that 4 % carried a firefly
+/// that left the component at relMSE 4.8 against another run's (one run in four at that
+/// budget). 64 is what a pass budget's schedule path traces in the four rounds after which
+/// `vbl` gets its weight ([`crate::auto::PT_SPP_PER_ROUND`] a round). A time budget gives a
+/// path-tracing scene's components hundreds in the first second.
+pub const MIN_PT_SAMPLES: u64 = 64;
+
 /// Where each component's estimate came from: what `--stats`, `--stats-json` and the EXR
 /// header report.
 #[derive(Clone, Debug, Default)]
@@ -297,6 +308,16 @@ impl ComponentError {
     }
 }
 
+/// Whether each estimator's estimate of a component (from `pt_samples` path-traced samples
+/// and `vbl_passes` passes) is weighed: `vbl`'s after [`MIN_VBL_PASSES`] (from its first
+/// when it alone serves the component); the path tracer's after [`MIN_PT_SAMPLES`] when
+/// `vbl`'s is, and from its second alone (it is then what there is).
+fn weighed(pt_samples: u64, vbl_passes: u64, vbl_only: bool) -> (bool, bool) {
+    let has_vbl = vbl_passes >= MIN_VBL_PASSES || (vbl_only && vbl_passes > 0);
+    let has_pt = !vbl_only && (pt_samples >= MIN_PT_SAMPLES || (!has_vbl && pt_samples >= 2));
+    (has_vbl, has_pt)
+}
+
 /// The combined estimate of one component with `vbl`'s weight `a`: its image and the variance
 /// of each pixel's estimate.
 fn combine(pt: &Film, vbl: &Film, a: f64) -> (Image, Image) {
@@ -367,8 +388,7 @@ impl Combined {
                 continue;
             }
             self.errors[k] = ComponentError::of(pt, vbl, &est.vbl_means[k], &est.pt_means[k], &relative);
-            let has_vbl = vbl.samples >= MIN_VBL_PASSES || (vbl_only[k] && vbl.samples > 0);
-            let has_pt = pt.samples >= 2 && !vbl_only[k];
+            let (has_vbl, has_pt) = weighed(pt.samples, vbl.samples, vbl_only[k]);
             report.vbl_weight[k] = self.errors[k].vbl_weight(has_vbl, has_pt);
         }
     }
@@ -456,6 +476,23 @@ mod tests {
         assert!((f.image().pixels[3][1] - image.pixels[3][1]).abs() < 1e-6);
         let v = f.variance_of_mean().pixels[3][1];
         assert!((v - variance.pixels[3][1]).abs() < 1e-4 * variance.pixels[3][1], "{v}");
+    }
+
+    /// Each estimator is weighed only after enough of its own: the path tracer's few dozen
+    /// heavy-tailed samples no more than `vbl`'s first passes (catches the old rule, `pt`
+    /// mixed in from its second sample, and a path tracer left out where it is all there is).
+    #[test]
+    fn each_estimate_waits_for_enough_of_its_own() {
+        // Both early: the path tracer alone.
+        assert_eq!(weighed(10, 3, false), (false, true));
+        // `vbl` ready, the path tracer not yet: `vbl` alone.
+        assert_eq!(weighed(21, 7, false), (true, false));
+        assert_eq!(weighed(MIN_PT_SAMPLES, 7, false), (true, true));
+        // A component only `vbl` serves: from its first pass, and never the path tracer.
+        assert_eq!(weighed(500, 1, true), (true, false));
+        // Before any `vbl` pass the path tracer is weighed from its second sample.
+        assert_eq!(weighed(1, 0, false), (false, false));
+        assert_eq!(weighed(2, 0, false), (false, true));
     }
 
     /// A biased vbl (its image mean off by far more than both estimates' noise) loses its
