@@ -14,7 +14,8 @@
 //!   lights), so a tile whose passes missed them looks both darker and less noisy and would be
 //!   trusted more — measured, 8×8-pixel tiles after 2–5 passes left `Lsm` and `Lss` 5 % dark
 //!   in the glossy fog box. Pooled over the image, that correlation is negligible; and `vbl`
-//!   gets no weight before [`MIN_VBL_PASSES`] passes;
+//!   gets no weight before [`MIN_VBL_PASSES`] passes, nor, while `vbl` has one, the path tracer
+//!   before [`crate::combine::MIN_PT_SAMPLES`] samples (its heavy tails behind glass);
 //! * **schedules** the time: after measuring both (the first steps run each), every step goes
 //!   to a `pt` slice or to a `vbl` pass over the components whose own share of a pass lowers
 //!   the combined error faster per second than the same time given to `pt` would. The
