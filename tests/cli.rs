@@ -309,6 +309,13 @@ fn gltf_alone_renders_and_info_describes_the_scene() {
     ] {
         assert!(text.contains(key), "info lacks {key}: {text}");
     }
+    // What `auto` will do, with the thresholds it uses (not a copy of them).
+    let waits = format!(
+        "pt's after {} samples, vbl's after {} passes",
+        beamlight_render::combine::MIN_PT_SAMPLES,
+        beamlight_render::auto::MIN_VBL_PASSES
+    );
+    assert!(text.contains(&waits), "info lacks {waits}: {text}");
 }
 
 #[test]

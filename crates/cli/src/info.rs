@@ -101,8 +101,18 @@ pub(crate) fn info(path: &Path) -> Result<()> {
         let mut plan = Vec::new();
         if !both.is_empty() {
             plan.push(format!(
-                "{}: pt and vbl, one weight per component from their measured errors; vbl runs a component only while its passes lower the error faster per second than path tracing",
-                list(&both)
+                "{}: pt and vbl, one weight per component from their measured errors (pt's after {} samples, vbl's after {} passes); vbl runs a component only while its passes lower the error faster per second than path tracing{}",
+                list(&both),
+                beamlight_render::combine::MIN_PT_SAMPLES,
+                beamlight_render::auto::MIN_VBL_PASSES,
+                if caustics.is_empty() && blind.is_empty() {
+                    format!(
+                        ", and with --time only if {} of its passes fit in a tenth of the budget (a pass's cost measured first on a small image)",
+                        beamlight_render::auto::MIN_VBL_PASSES
+                    )
+                } else {
+                    String::new()
+                }
             ));
         }
         if !caustics.is_empty() {
