@@ -94,6 +94,8 @@ pub(crate) fn info(path: &Path) -> Result<()> {
     if !needed.is_empty() {
         let only = beamlight_render::auto::vbl_only(&ts);
         let (solo, both): (Vec<Component>, Vec<Component>) = needed.iter().partition(|c| only[**c as usize]);
+        // Without a component `vbl` alone serves, a time budget may leave `vbl` out.
+        let probed = solo.is_empty();
         let list = |v: &[Component]| v.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ");
         let (caustics, blind): (Vec<Component>, Vec<Component>) = solo
             .into_iter()
@@ -105,7 +107,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
                 list(&both),
                 beamlight_render::combine::MIN_PT_SAMPLES,
                 beamlight_render::auto::MIN_VBL_PASSES,
-                if caustics.is_empty() && blind.is_empty() {
+                if probed {
                     format!(
                         ", and with --time only if {} of its passes fit in a tenth of the budget (a pass's cost measured first on a small image)",
                         beamlight_render::auto::MIN_VBL_PASSES

@@ -130,7 +130,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         );
     }
 
-    let opts = RenderOptions {
+    let mut opts = RenderOptions {
         method,
         width,
         height,
@@ -169,7 +169,6 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         gpu: device.gpu.clone(),
     };
     // `--backend auto` with a device worth trying: one small pass on each side decides.
-    let mut opts = opts;
     let backend = match (&device.gpu, device.measure) {
         (Some(gpu), true) => {
             let trial = beamlight_render::backend::measure(&ts, &opts, gpu).map_err(anyhow::Error::msg)?;
