@@ -1018,36 +1018,50 @@ fn interrupt_writes_the_image() {
     assert!((1..100000).contains(&spp), "{spp} passes");
 }
 
-/// `--only`: the path tracer writes the listed components and black elsewhere, the beauty is
-/// their sum; a name that is no component, or another method, is a clear error.
+/// `--only`: `pt` and `vbl` write the listed components and black elsewhere, the beauty is
+/// their sum (and `vbl`'s listed components are the whole render's, bit for bit: the others'
+/// gathers are skipped, not computed and dropped, and draw nothing from the listed ones'
+/// random numbers); a name that is no component, or `auto`, is a clear error.
 #[test]
-fn only_restricts_the_path_tracer() {
+fn only_restricts_the_estimator() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("only.exr");
-    run_ok(&small_render_by("pt", &out, &["--spp", "16", "--only", "Lmm,Lms"]));
-    let layers = beamlight_render::output::read_exr_layers(&out).unwrap();
-    assert_eq!(layers.len(), 8, "beauty and seven components");
-    let mut sum = vec![beamlight_scene::Rgb::ZERO; layers[0].1.pixels.len()];
-    for (name, img) in &layers[1..] {
-        let mean = img.mean().max_element();
-        if name == "Lmm" || name == "Lms" {
-            assert!(mean > 0.0, "{name} is black");
-        } else {
-            assert_eq!(mean, 0.0, "{name} was not asked for");
+    for (method, spp) in [("pt", "16"), ("vbl", "2")] {
+        let out = dir.path().join(format!("only_{method}.exr"));
+        run_ok(&small_render_by(method, &out, &["--spp", spp, "--only", "Lmm,Lms"]));
+        let layers = beamlight_render::output::read_exr_layers(&out).unwrap();
+        assert_eq!(layers.len(), 8, "{method}: beauty and seven components");
+        let mut sum = vec![beamlight_scene::Rgb::ZERO; layers[0].1.pixels.len()];
+        for (name, img) in &layers[1..] {
+            let mean = img.mean().max_element();
+            if name == "Lmm" || name == "Lms" {
+                assert!(mean > 0.0, "{method}: {name} is black");
+            } else {
+                assert_eq!(mean, 0.0, "{method}: {name} was not asked for");
+            }
+            for (s, p) in sum.iter_mut().zip(&img.pixels) {
+                *s += *p;
+            }
         }
-        for (s, p) in sum.iter_mut().zip(&img.pixels) {
-            *s += *p;
+        for (s, b) in sum.iter().zip(&layers[0].1.pixels) {
+            assert!(
+                (*s - *b).abs().max_element() <= 1e-5 * b.max_element().max(1.0),
+                "{method}: {s} vs beauty {b}"
+            );
         }
     }
-    for (s, b) in sum.iter().zip(&layers[0].1.pixels) {
-        assert!(
-            (*s - *b).abs().max_element() <= 1e-5 * b.max_element().max(1.0),
-            "{s} vs beauty {b}"
-        );
+    let whole = dir.path().join("whole_vbl.exr");
+    run_ok(&small_render_by("vbl", &whole, &["--spp", "2"]));
+    let whole = beamlight_render::output::read_exr_layers(&whole).unwrap();
+    let only = beamlight_render::output::read_exr_layers(&dir.path().join("only_vbl.exr")).unwrap();
+    for name in ["Lmm", "Lms"] {
+        let w = &whole.iter().find(|(n, _)| n == name).unwrap().1.pixels;
+        let o = &only.iter().find(|(n, _)| n == name).unwrap().1.pixels;
+        assert!(w == o, "vbl --only: {name} differs from the whole render's");
     }
+    let out = dir.path().join("bad.exr");
     for (method, list, message) in [
         ("pt", "Lmm,glow", "'glow' is not a component"),
-        ("vbl", "Lmm", "--only restricts the path tracer"),
+        ("auto", "Lmm", "--method auto picks its components"),
     ] {
         let args = small_render_by(method, &out, &["--spp", "1", "--only", list]);
         let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))

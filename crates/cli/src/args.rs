@@ -171,11 +171,12 @@ pub(crate) struct RenderArgs {
     /// caustic_volume) as its own EXR layer; `pt` classifies its paths the same way.
     #[arg(long)]
     pub(crate) components: bool,
-    /// `pt`: estimate only these components (comma-separated layer names, e.g. `Lmm,Lms`);
-    /// the others stay black. Paths that can reach none of them end early, and in homogeneous
-    /// media a ray whose next surface could feed only the others collides for sure, so a
-    /// component alone converges 1.7-3.9x faster than within the whole image. Implies
-    /// `--components`.
+    /// Estimate only these components (comma-separated layer names, e.g. `Lmm,Lms`); the
+    /// others stay black and cost nothing (not with `auto`, which picks its own). In `pt`,
+    /// paths that can reach none of them end early, and in homogeneous media a ray whose next
+    /// surface could feed only the others collides for sure, so a component alone converges
+    /// 1.7-3.9x faster than within the whole image; the many-light methods skip the other
+    /// components' gathers. Implies `--components`.
     #[arg(long, value_name = "LIST", value_parser = parse_component_list)]
     pub(crate) only: Option<ComponentList>,
     /// Light paths traced per pass by the many-light methods (each leaves several VPLs/VRLs;

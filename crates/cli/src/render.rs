@@ -83,11 +83,8 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
             bail!("{flag} {v} is out of range (1..=16384)");
         }
     }
-    if args.only.is_some() && method != Method::Pt {
-        bail!(
-            "--only restricts the path tracer; with --method {} every component is computed (auto restricts its path tracer by itself)",
-            method.name()
-        );
+    if args.only.is_some() && method == Method::Auto {
+        bail!("--only restricts one estimator; --method auto picks its components by itself");
     }
     check_output_path(&args.output, "exr")?;
     if let Some(p) = &args.preview {
@@ -130,6 +127,8 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         );
     }
 
+    // `--only`: the components every estimator of the render computes.
+    let only = args.only.map_or([true; Component::ALL.len()], |l| l.0);
     let mut opts = RenderOptions {
         method,
         width,
@@ -139,7 +138,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         first_pass: range_start.unwrap_or(0),
         path_tracer: PathTracerSettings {
             max_depth: args.max_depth,
-            components: args.only.map_or([true; Component::ALL.len()], |l| l.0),
+            components: only,
             ..Default::default()
         },
         start,
@@ -163,7 +162,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
             },
             // The method decides between rays and beams; `auto` picks the components.
             lights: Default::default(),
-            components: [true; Component::ALL.len()],
+            components: only,
             inject_nan: args.inject_nan,
         },
         gpu: device.gpu.clone(),
