@@ -1076,6 +1076,38 @@ fn only_restricts_the_estimator() {
     }
 }
 
+/// `--media-light-draw flat` changes how `Lmm`'s records draw their VBLs and nothing else:
+/// every other layer is the descent's bit for bit, `Lmm` differs but is lit; a name that is
+/// no drawing is a clear error.
+#[test]
+fn media_light_draw_touches_lmm_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |draw: &str| {
+        let out = dir.path().join(format!("{draw}.exr"));
+        run_ok(&small_render_by(
+            "vbl",
+            &out,
+            &["--spp", "2", "--media-light-draw", draw],
+        ));
+        beamlight_render::output::read_exr_layers(&out).unwrap()
+    };
+    let (descent, flat) = (render("descent"), render("flat"));
+    for ((name, a), (_, b)) in descent.iter().zip(&flat).skip(1) {
+        if name == "Lmm" {
+            assert!(a.pixels != b.pixels, "Lmm drawn flat is the descent's");
+            assert!(b.mean().max_element() > 0.0, "Lmm drawn flat is black");
+        } else {
+            assert!(a.pixels == b.pixels, "{name} changed with the drawing of Lmm");
+        }
+    }
+    let args = small_render_by("vbl", &dir.path().join("bad.exr"), &["--media-light-draw", "sideways"]);
+    let o = Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(!o.status.success() && stderr(&o).contains("sideways"), "{}", stderr(&o));
+}
+
 /// The discard counters end to end. `--inject-nan` (hidden, for tests) makes the first record
 /// of every gather of a pass estimate NaN, on the CPU and in each GPU kernel; on the glass-ball
 /// fog scene every component has records and lights in every pass, so a render of P passes

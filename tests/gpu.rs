@@ -16,7 +16,7 @@ use beamlight_trace::{
     camera_paths::{CameraPathSettings, trace_camera_paths},
     components::Component,
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{LightTree, Receiver},
+    light_tree::{Drawing, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, AngularPdf, VblSettings},
     vpl, vrl,
@@ -313,7 +313,11 @@ fn compare_gathers_chunked(
     let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
     // `light_samples` lights drawn per record from the trees (`media_light_samples` per camera
     // segment from the VBL tree), or 0 for all pairs.
-    let run = |kernels: [GatherKernel; 4], radius2: f32, light_samples: u32, media_light_samples: u32| {
+    let run = |kernels: [GatherKernel; 4],
+               radius2: f32,
+               light_samples: u32,
+               media_light_samples: u32,
+               media_drawing: Drawing| {
         let inputs = GatherInputs {
             shading_points: &gather.shading_points,
             media_segments: &gather.media_segments,
@@ -327,6 +331,7 @@ fn compare_gathers_chunked(
             vbl: vbl_settings,
             light_samples,
             media_light_samples,
+            media_drawing,
             vsl_tree: if light_samples > 0 { &vsl_tree.nodes } else { &[] },
             vbl_tree: if light_samples > 0 { &vbl_tree.nodes } else { &[] },
             inject_nan: false,
@@ -350,7 +355,7 @@ fn compare_gathers_chunked(
     let (vpls, vrls) = (&lights.vpls, &lights.vrls);
 
     if let Some(clamp) = clamp {
-        let (g, gpu_time) = run(GatherKernel::RAYS, 0.0, 0, 0);
+        let (g, gpu_time) = run(GatherKernel::RAYS, 0.0, 0, 0, Drawing::Descent);
         let clock = Instant::now();
         let cpu: [PerRecord; 4] = [
             per_record(sps, vpls, m, |i, sp, j, v| {
@@ -385,7 +390,7 @@ fn compare_gathers_chunked(
 
     for &r in radii {
         let r2 = r * r;
-        let (g, gpu_time) = run(GatherKernel::BEAMS, r2, 0, 0);
+        let (g, gpu_time) = run(GatherKernel::BEAMS, r2, 0, 0, Drawing::Descent);
         let clock = Instant::now();
         let s = &vbl_settings;
         let cpu: [PerRecord; 4] = [
@@ -424,7 +429,7 @@ fn compare_gathers_chunked(
         // descent is the CPU's twin), each over its probability.
         // `Lmm` draws its own number (`--media-light-samples`).
         let (samples, media_samples) = (3, 5);
-        let (g, _) = run(GatherKernel::BEAMS, r2, samples, media_samples);
+        let (g, _) = run(GatherKernel::BEAMS, r2, samples, media_samples, Drawing::Descent);
         let drawn = |kind, i: usize, slot: u32| streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot);
         let cpu: [Vec<Rgb>; 4] = [
             per_drawn(
@@ -434,7 +439,7 @@ fn compare_gathers_chunked(
                 samples,
                 m,
                 |sp| Receiver::at_point(&ts.scene, sp),
-                GatherKind::VplToSurface,
+                (GatherKind::VplToSurface, Drawing::Descent),
                 (pair_seed, pass),
                 |i, sp, slot, j| {
                     let kind = GatherKind::VplToSurface;
@@ -448,7 +453,7 @@ fn compare_gathers_chunked(
                 samples,
                 m,
                 |sp| Receiver::at_point(&ts.scene, sp),
-                GatherKind::VrlToSurface,
+                (GatherKind::VrlToSurface, Drawing::Descent),
                 (pair_seed, pass),
                 |i, sp, slot, j| {
                     let kind = GatherKind::VrlToSurface;
@@ -462,7 +467,7 @@ fn compare_gathers_chunked(
                 samples,
                 m,
                 |seg| Receiver::along_segment(&ts.scene, seg),
-                GatherKind::VplToMedia,
+                (GatherKind::VplToMedia, Drawing::Descent),
                 (pair_seed, pass),
                 |i, seg, slot, j| {
                     let kind = GatherKind::VplToMedia;
@@ -476,7 +481,7 @@ fn compare_gathers_chunked(
                 media_samples,
                 m,
                 |seg| Receiver::along_segment(&ts.scene, seg),
-                GatherKind::VrlToMedia,
+                (GatherKind::VrlToMedia, Drawing::Descent),
                 (pair_seed, pass),
                 |i, seg, slot, j| {
                     let kind = GatherKind::VrlToMedia;
@@ -493,6 +498,31 @@ fn compare_gathers_chunked(
                 &|i| explain(&gather, &lights, slot, i, None),
             );
         }
+        // `Lmm` drawn flat (`--media-light-draw flat`): every VBL's pair integral summed on
+        // both sides in node order, the same picks from the running sum.
+        let (g, _) = run(GatherKernel::BEAMS, r2, samples, media_samples, Drawing::Flat);
+        let flat = per_drawn(
+            segs,
+            &vbl_tree,
+            r,
+            media_samples,
+            m,
+            |seg| Receiver::along_segment(&ts.scene, seg),
+            (GatherKind::VrlToMedia, Drawing::Flat),
+            (pair_seed, pass),
+            |i, seg, slot, j| {
+                let kind = GatherKind::VrlToMedia;
+                vbl::vbl_to_media(&ts, seg, &vrls[j], r2, s, &mut drawn(kind, i, slot))
+            },
+        );
+        let k = GatherKernel::BEAMS[3];
+        check_kernel(
+            &format!("{name}, R = {r}, {media_samples} lights drawn flat for Lmm"),
+            k,
+            &g.results[k as usize],
+            &flat,
+            &|i| explain(&gather, &lights, 3, i, None),
+        );
     }
 }
 
@@ -505,7 +535,7 @@ fn per_drawn<R>(
     samples: u32,
     m: f32,
     receiver: impl Fn(&R) -> Receiver,
-    kind: GatherKind,
+    (kind, drawing): (GatherKind, Drawing),
     (pair_seed, pass): (u32, u32),
     f: impl Fn(usize, &R, u32, usize) -> Rgb,
 ) -> Vec<Rgb> {
@@ -515,7 +545,15 @@ fn per_drawn<R>(
         .map(|(i, rec)| {
             let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
             let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
-            tree.estimate(&receiver(rec), r, samples, xi, descent, |slot, j| f(i, rec, slot, j)) / m
+            tree.estimate(
+                &receiver(rec),
+                r,
+                samples,
+                xi,
+                Drawing::of(kind, drawing),
+                descent,
+                |slot, j| f(i, rec, slot, j),
+            ) / m
         })
         .collect()
 }
@@ -546,6 +584,7 @@ fn a_kernel_not_compiled_is_an_error() {
         vbl: VblSettings::default(),
         light_samples: 0,
         media_light_samples: 0,
+        media_drawing: Drawing::Descent,
         vsl_tree: &[],
         vbl_tree: &[],
         inject_nan: false,

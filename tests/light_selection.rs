@@ -15,7 +15,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{LightTree, Receiver},
+    light_tree::{Drawing, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
 };
@@ -65,7 +65,7 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         n_lights: usize,
         tree: &LightTree,
         receiver: impl Fn(&R) -> Receiver,
-        kind: GatherKind,
+        (kind, drawing): (GatherKind, Drawing),
         r: f32,
         k: u32,
         (all_runs, drawn_runs): (u32, u32),
@@ -93,13 +93,21 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
                 for (i, rec) in records.iter().enumerate() {
                     let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
                     let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
-                    let v = tree.estimate(&receiver(rec), r, k, xi, descent, |slot, j| {
-                        f(
-                            rec,
-                            j,
-                            &mut streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot),
-                        )
-                    });
+                    let v = tree.estimate(
+                        &receiver(rec),
+                        r,
+                        k,
+                        xi,
+                        Drawing::of(kind, drawing),
+                        descent,
+                        |slot, j| {
+                            f(
+                                rec,
+                                j,
+                                &mut streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot),
+                            )
+                        },
+                    );
                     assert!(v.is_finite(), "{what}: record {i} gave {v}");
                     total += v.as_dvec3();
                 }
@@ -122,7 +130,7 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         vpls.len(),
         &vsl_tree,
         |sp| Receiver::at_point(&ts.scene, sp),
-        GatherKind::VplToSurface,
+        (GatherKind::VplToSurface, Drawing::Descent),
         r,
         k,
         runs,
@@ -135,7 +143,7 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         vrls.len(),
         &vbl_tree,
         |sp| Receiver::at_point(&ts.scene, sp),
-        GatherKind::VrlToSurface,
+        (GatherKind::VrlToSurface, Drawing::Descent),
         r,
         k,
         runs,
@@ -148,7 +156,7 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         vpls.len(),
         &vsl_tree,
         |seg| Receiver::along_segment(&ts.scene, seg),
-        GatherKind::VplToMedia,
+        (GatherKind::VplToMedia, Drawing::Descent),
         r,
         k,
         runs,
@@ -161,7 +169,20 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         vrls.len(),
         &vbl_tree,
         |seg| Receiver::along_segment(&ts.scene, seg),
-        GatherKind::VrlToMedia,
+        (GatherKind::VrlToMedia, Drawing::Descent),
+        r,
+        k,
+        runs,
+        ps,
+        |seg, j, s| vbl::vbl_to_media(&ts, seg, &vrls[j], r2, &settings, s),
+    );
+    compare(
+        "Lmm drawn flat",
+        segs,
+        vrls.len(),
+        &vbl_tree,
+        |seg| Receiver::along_segment(&ts.scene, seg),
+        (GatherKind::VrlToMedia, Drawing::Flat),
         r,
         k,
         runs,

@@ -83,6 +83,8 @@ struct GatherParams {
     vbl_tree_nodes: u32,
     // Fault injection for the discard counters' tests: 0, or a NaN's bits.
     poison: u32,
+    // How `Lmm`'s records draw their VBLs: 0 down the tree, 1 flat (`light_tree::Drawing`).
+    media_drawing: u32,
 }
 
 // `components::SHARP_PHASE_G`: HG media at least this anisotropic are sharp, and a camera

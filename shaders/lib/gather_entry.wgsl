@@ -3,8 +3,8 @@
 //! hooks GATHER_KIND GatherRecord gather_record gathers_here light_tree_of record_receiver light_contribution
 // The entry point of every gather kernel: one invocation per gather record sums its estimate
 // over the pass's virtual lights, all of them, each with its pair's stream, or with light
-// selection (`params.light_samples` > 0) that many drawn from the pass's light tree, each over
-// its probability (the CPU's twin: `record_gathers::gather_lights`), and writes it with its
+// selection (`params.light_samples` > 0) that many drawn from the pass's light tree (for
+// camera media segments against VBLs, from all its leaves at once), each over its probability (the CPU's twin: `record_gathers::gather_lights`), and writes it with its
 // discard count. The kernel supplies what differs between kernels (the `hooks` above), the
 // record's part from lib/surface_record.wgsl or lib/media_record.wgsl:
 //   const GATHER_KIND: u32                    the gather kind, which names its random streams
@@ -31,6 +31,41 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 var s = pair_sampler(GATHER_KIND, i, j);
                 sum += admit(light_contribution(r, j, &s), &discarded);
             }
+        } else if tree.y > 0u && GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
+            // `Lmm`: every leaf weighed at once (`LightTree::sample_flat_k`); each drawn
+            // light's pair is estimated as the running sum passes its slot's number.
+            let receiver = record_receiver(r);
+            let xi = selection_number(GATHER_KIND, i);
+            let radius = sqrt(max(params.radius2, 0.0));
+            let sums = flat_sums(tree, receiver, radius);
+            if sums.y > 0.0 {
+                var slot = 0u;
+                var running = 0.0;
+                var last = Pick(0u, 0.0, false);
+                for (var n = 0u; n < tree.y; n++) {
+                    let node = light_tree[tree.x + n];
+                    if (node.child & LIGHT_LEAF) == 0u {
+                        continue;
+                    }
+                    let pick = Pick(node.child & LIGHT_MASK, flat_mass(flat_importance(node, receiver, radius), node.weight, sums.x, sums.y), true);
+                    running += pick.pmf;
+                    if pick.pmf > 0.0 {
+                        last = pick;
+                    }
+                    while slot < params.light_samples && flat_threshold(slot, xi) < running {
+                        var s = drawn_pair_sampler(GATHER_KIND, i, slot);
+                        sum += admit(light_contribution(r, pick.light, &s), &discarded) / pick.pmf;
+                        slot++;
+                    }
+                }
+                // A number beyond the whole sum, by rounding: the last leaf with a mass.
+                while slot < params.light_samples && last.found {
+                    var s = drawn_pair_sampler(GATHER_KIND, i, slot);
+                    sum += admit(light_contribution(r, last.light, &s), &discarded) / last.pmf;
+                    slot++;
+                }
+            }
+            sum = sum / f32(params.light_samples);
         } else if tree.y > 0u {
             let receiver = record_receiver(r);
             let xi = selection_number(GATHER_KIND, i);

@@ -14,7 +14,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{LightTree, Receiver},
+    light_tree::{Drawing, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
@@ -118,6 +118,7 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
         vbl,
         light_samples: 0,
         media_light_samples: 0,
+        media_drawing: Drawing::Descent,
         vsl_tree: &[],
         vbl_tree: &[],
         inject_nan: false,
@@ -201,6 +202,7 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
     let inputs = GatherInputs {
         light_samples: samples,
         media_light_samples: samples,
+        media_drawing: Drawing::Descent,
         vsl_tree: &vsl_tree.nodes,
         vbl_tree: &vbl_tree.nodes,
         inject_nan: false,
@@ -228,7 +230,15 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
         let estimate = |i: usize, rx: Receiver, f: &(dyn Fn(usize, &mut Sampler) -> Rgb + Sync)| {
             let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
             let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
-            tree.estimate(&rx, r, samples, xi, descent, |slot, j| f(j, &mut drawn(i, slot)))
+            tree.estimate(
+                &rx,
+                r,
+                samples,
+                xi,
+                Drawing::of(kind, Drawing::Descent),
+                descent,
+                |slot, j| f(j, &mut drawn(i, slot)),
+            )
         };
         let clock = Instant::now();
         let total: Rgb = if k.on_surfaces() {

@@ -11,7 +11,7 @@ use beamlight_scene::{Rgb, Scene, bsdf};
 pub use beamlight_trace::gather::GatherInputs;
 use beamlight_trace::{
     camera_paths::{MediaSegment, ShadingPoint},
-    light_tree::LightTreeNode,
+    light_tree::{Drawing, LightTreeNode},
     vbl::AngularPdf,
 };
 use glam::Vec2;
@@ -362,6 +362,7 @@ impl Gathers {
                     vsl_tree_nodes: inputs.vsl_tree.len() as u32,
                     vbl_tree_nodes: inputs.vbl_tree.len() as u32,
                     poison: if inputs.inject_nan { f32::NAN.to_bits() } else { 0 },
+                    media_drawing: (inputs.media_drawing == Drawing::Flat) as u32,
                 };
                 let params = compute::uniform(gpu, "gather params", &params);
                 // This chunk's records; of the other kind's array (unused) just its start.

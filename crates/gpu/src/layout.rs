@@ -166,6 +166,8 @@ pub struct GatherParams {
     /// first record estimates instead of its gather (a NaN from the CPU, not a WGSL constant,
     /// which the shader compiler may fold or reject).
     pub poison: u32,
+    /// How `Lmm`'s records draw their VBLs: 0 down the tree, 1 flat (`Drawing`).
+    pub media_drawing: u32,
 }
 
 /// `GatherParams::angular_pdf`: the paper's vertex values (at ω'_max).

@@ -22,7 +22,7 @@ pub mod source;
 
 // The types of the render API that other crates define: the scene a render traces, and the
 // estimators' settings inside `RenderOptions`.
-pub use beamlight_trace::{TraceScene, pt::PathTracerSettings, vbl::VblSettings};
+pub use beamlight_trace::{TraceScene, light_tree::Drawing, pt::PathTracerSettings, vbl::VblSettings};
 pub use film::{Film, Image};
 pub use method::Method;
 pub use options::{Budget, RenderOptions};

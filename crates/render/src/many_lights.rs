@@ -23,7 +23,7 @@ use beamlight_trace::{
     components::Component,
     direct,
     light_paths::{Keep, LightTracerSettings, trace_light_paths},
-    light_tree::LightTree,
+    light_tree::{Drawing, LightTree},
     streams,
     vbl::VblSettings,
 };
@@ -75,6 +75,9 @@ pub struct ManyLightSettings {
     /// (10 s, four seeds each), but in the smoke box, whose heterogeneous medium makes each
     /// pair dearer, 1.2× and 1.6× higher. So the default stays `light_samples`.
     pub media_light_samples: Option<u32>,
+    /// How camera media segments draw their VBLs for `Lmm` (`--media-light-draw`): down the
+    /// tree (the default) or flat by each one's pair integral ([`LightTree::flat_masses`]).
+    pub media_drawing: Drawing,
     /// Camera samples per pixel per pass for direct light (`--direct-samples`): the gather's
     /// own and more, each with its own pixel jitter and one next-event estimate (light and
     /// BSDF/phase sampling, MIS) at each of its records. Direct light costs little next to
@@ -161,6 +164,7 @@ impl Default for ManyLightSettings {
             alpha: 0.7,
             light_samples: Some(DEFAULT_LIGHT_SAMPLES),
             media_light_samples: None,
+            media_drawing: Drawing::Descent,
             direct_samples: DEFAULT_DIRECT_SAMPLES,
             caustic_paths: None,
             beam_paths: DEFAULT_BEAM_PATHS,
@@ -420,6 +424,7 @@ pub fn start_pass(
         (true, Some(k)) => Some(Selection {
             k: k.max(1),
             k_media: settings.media_light_samples.unwrap_or(k).max(1),
+            media_drawing: settings.media_drawing,
             r,
             pair_seed: streams::pair_seed(seed),
             pass,
@@ -444,6 +449,7 @@ pub fn start_pass(
         vbl: settings.vbl,
         light_samples: selection.as_ref().map_or(0, |s| s.k),
         media_light_samples: selection.as_ref().map_or(0, |s| s.k_media),
+        media_drawing: settings.media_drawing,
         inject_nan: settings.inject_nan,
         vsl_tree: selection.as_ref().map_or(&[], |s| &s.vsls.nodes),
         vbl_tree: selection.as_ref().map_or(&[], |s| &s.vbls.nodes),

@@ -10,7 +10,7 @@ use beamlight_trace::{
     direct,
     gather::GatherInputs,
     light_paths::{LightSegment, SurfaceVertex},
-    light_tree::{LightTree, Receiver},
+    light_tree::{Drawing, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
@@ -315,6 +315,8 @@ pub(crate) struct Selection {
     /// Draws per camera media segment from the VBL tree (`Lmm`,
     /// [`crate::many_lights::ManyLightSettings::media_light_samples`]).
     pub(crate) k_media: u32,
+    /// How camera media segments draw VBLs (`Lmm`).
+    pub(crate) media_drawing: Drawing,
     /// The pass's VBL/VSL radius.
     pub(crate) r: f32,
     pub(crate) pair_seed: u32,
@@ -353,6 +355,7 @@ impl Selection {
                     self.k
                 },
                 streams::selection_number(seed, pass, kind, i),
+                Drawing::of(kind, self.media_drawing),
                 |slot| streams::selection_sampler(seed, pass, kind, i, slot),
                 |slot, j| {
                     admit(

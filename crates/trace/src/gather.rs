@@ -3,7 +3,7 @@
 use crate::{
     camera_paths::{MediaSegment, ShadingPoint},
     light_paths::{LightSegment, SurfaceVertex},
-    light_tree::LightTreeNode,
+    light_tree::{Drawing, LightTreeNode},
     vbl::VblSettings,
 };
 
@@ -30,6 +30,8 @@ pub struct GatherInputs<'a> {
     pub light_samples: u32,
     /// The same for the VBL → camera segment gather (`Lmm`), which may draw more.
     pub media_light_samples: u32,
+    /// How the VBL → camera segment gather draws (`--media-light-draw`).
+    pub media_drawing: Drawing,
     /// The pass's light trees over `vpls` and `vrls` (empty without light selection).
     pub vsl_tree: &'a [LightTreeNode],
     pub vbl_tree: &'a [LightTreeNode],

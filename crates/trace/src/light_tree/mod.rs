@@ -28,12 +28,17 @@
 //!   horizon; for a camera segment along both lines, times both phase functions between the
 //!   two lines' closest points); or, if larger, the density at the end of the VBL's first mean
 //!   free path times the same integral over that first stretch. A VSL's leaf seen from a
-//!   camera segment gets the camera medium's phase function likewise.
+//!   camera segment gets the camera medium's phase function likewise. A flat draw weighs a
+//!   VBL leaf for a camera segment by the pair integral ∫∫ ρ F / d² itself instead
+//!   ([`flat_importance`]: F both phase functions at each pair's own direction).
 //!
 //! **Sampling.** A record descends from the root, choosing the left child with probability
 //! a/(a+b) of the children's importances; the product of the choices is the leaf's
 //! probability. K lights per record make their root choices with the stratified numbers
-//! (k + ξ)/K, their deeper ones with fresh numbers (see [`LightTree::sample`]). The estimate
+//! (k + ξ)/K, their deeper ones with fresh numbers (see [`LightTree::sample`]). Camera media
+//! segments may draw VBLs flat instead (`--media-light-draw flat`, [`Drawing`]): every leaf at
+//! once, by its own importance, the same stratified numbers on the running sum
+//! ([`LightTree::flat_masses`] says when that pays). The estimate
 //! Σ f(light)/(K p(light)) is unbiased against the all-pairs sum as long as p > 0 wherever
 //! f ≠ 0: the importance is positive except for boxes of VSLs that provably cannot contribute
 //! (below the receiver's horizon),
@@ -42,13 +47,16 @@
 //! that ends there finds no light and counts zero, which is exactly what every light under
 //! that node contributes (so the probabilities sum to at most 1 and nothing is biased).
 //! The all-pairs gather stays the oracle (`tests/light_selection.rs`).
-use crate::light_paths::{LightSegment, SurfaceVertex};
+use crate::{
+    light_paths::{LightSegment, SurfaceVertex},
+    streams::GatherKind,
+};
 use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, rng::Sampler};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 
 mod importance;
-pub use importance::{Gloss, Receiver, importance};
+pub use importance::{Gloss, Receiver, flat_importance, importance};
 
 /// A node of a [`LightTree`] (`LightTreeNode` in `shaders/lib/light_tree.wgsl`).
 #[repr(C)]
@@ -103,6 +111,36 @@ impl LightTreeNode {
         };
         let (x, y, z) = (pick(0), pick(1), pick(2));
         (Vec3::new(x.0, y.0, z.0), Vec3::new(x.1, y.1, z.1))
+    }
+}
+
+/// How a record draws its lights from a tree (`--media-light-draw` for `Lmm`'s records).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Drawing {
+    /// Down from the root, by the children's importances ([`LightTree::sample`]).
+    #[default]
+    Descent,
+    /// From all leaves at once, by each one's importance ([`LightTree::flat_masses`]).
+    Flat,
+}
+
+impl Drawing {
+    /// How records of `kind` draw: camera media segments against VBLs (`Lmm`) as `media`
+    /// says, every other kind by the descent. The GPU's gather entry
+    /// (`shaders/lib/gather_entry.wgsl`) makes the same choice by its kernel's kind.
+    pub fn of(kind: GatherKind, media: Drawing) -> Drawing {
+        if kind == GatherKind::VrlToMedia {
+            media
+        } else {
+            Drawing::Descent
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Drawing::Descent => "descent",
+            Drawing::Flat => "flat",
+        }
     }
 }
 
@@ -176,6 +214,16 @@ fn left_probability(a: f32, b: f32, left: &LightTreeNode, right: &LightTreeNode)
         (1.0 - DEFENSIVE_SHARE) * p + DEFENSIVE_SHARE * (left.weight / (left.weight + right.weight))
     } else {
         p
+    }
+}
+
+/// A leaf's probability in a flat draw: (1 − D) of its importance's share of `sum_i` plus D
+/// of its weight's of `sum_w` (the weight's alone when `sum_i` is not positive).
+fn flat_mass(importance: f32, weight: f32, sum_i: f32, sum_w: f32) -> f32 {
+    if sum_i > 0.0 {
+        (1.0 - DEFENSIVE_SHARE) * (importance / sum_i) + DEFENSIVE_SHARE * (weight / sum_w)
+    } else {
+        weight / sum_w
     }
 }
 
@@ -382,26 +430,92 @@ impl LightTree {
     }
 
     /// The light-selection estimate of the sum over the tree's lights of `f(slot, light)`:
-    /// `k` lights drawn for the receiver ([`LightTree::sample_k`]), each contribution over its
-    /// probability, averaged. Unbiased for the all-pairs sum when `f` is zero for every
-    /// light the tree cannot draw (see the module documentation).
+    /// `k` lights drawn for the receiver as `drawing` says ([`LightTree::sample_k`], the
+    /// descent, whose deeper choices come from `stream(slot)`, or [`LightTree::sample_flat_k`]),
+    /// each contribution over its probability, averaged. Unbiased for the all-pairs sum when
+    /// `f` is zero for every light the tree cannot draw (see the module documentation).
+    #[allow(clippy::too_many_arguments)]
     pub fn estimate(
         &self,
         rx: &Receiver,
         r: f32,
         k: u32,
         xi: f32,
+        drawing: Drawing,
         stream: impl Fn(u32) -> Sampler,
         mut f: impl FnMut(u32, usize) -> Rgb,
     ) -> Rgb {
         if self.nodes.is_empty() {
             return Rgb::ZERO;
         }
-        let sum: Rgb = self
-            .sample_k(rx, r, k, xi, stream)
-            .map(|p| f(p.slot, p.light as usize) / p.pmf)
-            .sum();
+        let mut term = |p: Pick| f(p.slot, p.light as usize) / p.pmf;
+        let sum: Rgb = match drawing {
+            Drawing::Descent => self.sample_k(rx, r, k, xi, stream).map(&mut term).sum(),
+            Drawing::Flat => self.sample_flat_k(rx, r, k, xi).into_iter().map(&mut term).sum(),
+        };
         sum / k as f32
+    }
+
+    /// Each leaf's share of a flat draw for `rx`, in node order: (light, probability). A flat
+    /// draw passes the tree's interior by and weighs every leaf at once: (1 − D) of its
+    /// importance's share plus D of its weight's, D = [`DEFENSIVE_SHARE`] (all of the
+    /// weight's when no leaf has any importance). Empty when no leaf has weight.
+    ///
+    /// Why: a VBL is long, and the boxes of a tree over VBLs in a room span the room from its
+    /// first levels on, so a camera segment's descent cannot tell its children apart and
+    /// halves a light's probability at every level however bright it is; and the descent's
+    /// leaves take the phase functions at the lines' closest points, which misses a VBL that
+    /// runs against the camera ray beside it by thousands. In the glossy fog box a draw of
+    /// `Lmm` had a relative variance of 59 descending, 37 drawing lights uniformly, 2.0 flat
+    /// by [`flat_importance`], 1.1 with the ideal probabilities (`examples/lmm_variance.rs`).
+    /// The cost is a [`flat_importance`] per light per record (0.4 µs; 220 VBLs a pass: about
+    /// 90 µs a record, against some 4 µs a drawn pair): `Lmm` alone then converges 2.4–4.6×
+    /// faster there, but the other components get fewer passes, and the whole image gained
+    /// only in the glossy fog box (see docs/rendering.md), so it is not the default.
+    ///
+    /// The sums are taken in node order, one light after the other, as the GPU's twin
+    /// (`flat_mass` in `shaders/lib/light_tree.wgsl`) takes them.
+    pub fn flat_masses(&self, rx: &Receiver, r: f32) -> Vec<(u32, f32)> {
+        let leaves = || self.nodes.iter().filter(|n| n.is_leaf());
+        let importances: Vec<f32> = leaves().map(|n| flat_importance(n, rx, r)).collect();
+        let (mut sum_i, mut sum_w) = (0.0f32, 0.0f32);
+        for (n, i) in leaves().zip(&importances) {
+            sum_i += i;
+            sum_w += n.weight;
+        }
+        if !(sum_w > 0.0) {
+            return Vec::new();
+        }
+        leaves()
+            .zip(importances)
+            .map(|(n, i)| (n.light(), flat_mass(i, n.weight, sum_i, sum_w)))
+            .collect()
+    }
+
+    /// `k` lights for one record drawn flat ([`LightTree::flat_masses`]): slot k takes the
+    /// leaf where the running sum of the masses, in node order, first exceeds the stratified
+    /// number (k + ξ)/K (a number beyond the whole sum, by rounding, takes the last leaf with
+    /// a mass).
+    pub fn sample_flat_k(&self, rx: &Receiver, r: f32, k: u32, xi: f32) -> Vec<Pick> {
+        let masses = self.flat_masses(rx, r);
+        let mut picks = Vec::with_capacity(k as usize);
+        let mut slot = 0u32;
+        let mut running = 0.0f32;
+        let threshold = |slot: u32| ((slot as f32 + xi) / k as f32).min(ONE_BELOW);
+        for &(light, pmf) in &masses {
+            running += pmf;
+            while slot < k && threshold(slot) < running {
+                picks.push(Pick { light, pmf, slot });
+                slot += 1;
+            }
+        }
+        if let Some(&(light, pmf)) = masses.iter().rev().find(|m| m.1 > 0.0) {
+            while slot < k {
+                picks.push(Pick { light, pmf, slot });
+                slot += 1;
+            }
+        }
+        picks
     }
 
     /// Every light's probability of being drawn for `rx` (0 for lights not in the tree), by

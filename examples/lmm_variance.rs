@@ -1,0 +1,225 @@
+//! Issue 34's measurement: where the variance of `vbl`'s `Lmm` draws comes from. For one pass
+//! of a scene (its light paths and one camera ray per pixel), a sample of camera media segments
+//! is gathered against every VBL of the pass, each pair estimated `PAIRS` times: per pair the
+//! mean c_i and variance v_i of the pair estimate, per light its probability p_i in the light
+//! tree. One draw of the tree then has variance
+//!
+//!   V = Σ (c_i² + v_i)/p_i − C² = [Σ c_i²/p_i − C²] (selection) + Σ v_i/p_i (pair sampling),
+//!
+//! C = Σ c_i, which this prints summed over the sample relative to Σ C² (so a draw's relative
+//! variance) for the tree's descent, beside the same for a flat draw by `flat_importance`
+//! (`--media-light-draw flat`), for lights drawn uniformly, and for the ideal selection
+//! (p ∝ √(c² + v), the best for these pair samplers); the lights whose terms weigh most
+//! (`WORST`, 12), with the descent's choices on the way to one of them (`TRACE=segment
+//! LIGHT=light`); and what a flat importance and a pair cost.
+//!
+//! Settings by environment: SCENE (assets/scenes/cornell_glossy_fog.toml), SIZE (48), PASS
+//! (32, for the radius), RECORDS (200), PAIRS (64), SEED (1), REPEAT (1: passes of the
+//! importances' timing loop, for a profiler).
+//!
+//! `cargo run --release --example lmm_variance`
+use beamlight_render::radius::{default_radius, paths_squared_radius};
+use beamlight_scene::{luminance_mean, rng::Sampler};
+use beamlight_trace::{
+    TraceScene,
+    camera_paths::{CameraPathSettings, trace_camera_paths},
+    light_paths::{LightTracerSettings, trace_light_paths},
+    light_tree::{LightTree, Receiver},
+    vbl::{VblSettings, vbl_to_media},
+};
+use std::time::Instant;
+
+fn env<T: std::str::FromStr>(k: &str, d: T) -> T {
+    std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
+}
+
+fn main() {
+    let scene_path: String = env("SCENE", "assets/scenes/cornell_glossy_fog.toml".to_string());
+    let size: u32 = env("SIZE", 48);
+    let pass: u32 = env("PASS", 32);
+    let records: usize = env("RECORDS", 200);
+    let pairs: u32 = env("PAIRS", 64);
+    let seed: u32 = env("SEED", 1);
+    let scene = beamlight_scene::load::load_scene(std::path::Path::new(&scene_path)).expect("scene");
+    let ts = TraceScene::new(scene);
+    let paths = 64;
+    let r2 = paths_squared_radius(default_radius(&ts.scene), 0.7, paths, pass);
+    let r = r2.sqrt();
+    let lights = trace_light_paths(&ts, &LightTracerSettings::default(), paths, seed, pass);
+    let camera = trace_camera_paths(&ts, &CameraPathSettings::default(), size, size, seed ^ 0x55, pass);
+    let tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
+    let settings = VblSettings::default();
+    let segs = &camera.media_segments;
+    let step = (segs.len() / records.max(1)).max(1);
+    println!(
+        "{scene_path}: {} VBLs from {paths} paths, {} media segments ({} sampled), R = {r:.4}",
+        lights.vrls.len(),
+        segs.len(),
+        segs.len().div_ceil(step)
+    );
+    let (mut sel, mut pair, mut ideal, mut c2, mut uniform) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let mut evaluated = 0u64;
+    let mut flat_sel = 0.0f64;
+    // The worst terms: (their share of the sample's variance, description).
+    let mut worst: Vec<(f64, String)> = Vec::new();
+    let clock = Instant::now();
+    for (k, seg) in segs.iter().enumerate().step_by(step) {
+        let rx = Receiver::along_segment(&ts.scene, seg);
+        let p = tree.pmfs(&rx, r, lights.vrls.len());
+        // Flat selection by each leaf's own importance (no tree above it), 10 % by flux.
+        let leaves: Vec<usize> = (0..lights.vrls.len()).map(|i| leaf_of(&tree, i)).collect();
+        let imp: Vec<f64> = leaves
+            .iter()
+            .map(|&n| beamlight_trace::light_tree::flat_importance(&tree.nodes[n], &rx, r) as f64)
+            .collect();
+        let wts: Vec<f64> = leaves.iter().map(|&n| tree.nodes[n].weight as f64).collect();
+        let (isum, wsum) = (imp.iter().sum::<f64>(), wts.iter().sum::<f64>());
+        let flat: Vec<f64> = imp
+            .iter()
+            .zip(&wts)
+            .map(|(i, w)| 0.9 * i / isum + 0.1 * w / wsum)
+            .collect();
+        let mut flat_k = 0.0f64;
+        if std::env::var("TRACE").is_ok_and(|t| t.split(',').any(|x| x == format!("{k}"))) {
+            // The descent to each of the worst lights: importances of both children per level.
+            let light: usize = env("LIGHT", 0);
+            let leaf = leaf_of(&tree, light);
+            let mut path = vec![leaf];
+            while path[0] != 0 {
+                let at = path[0];
+                let parent = tree
+                    .nodes
+                    .iter()
+                    .position(|n| !n.is_leaf() && (n.child as usize == at || n.child as usize + 1 == at))
+                    .unwrap();
+                path.insert(0, parent);
+            }
+            for w in path.windows(2) {
+                let c = tree.nodes[w[0]].child as usize;
+                let (ia, ib) = (
+                    beamlight_trace::light_tree::importance(&tree.nodes[c], &rx, r),
+                    beamlight_trace::light_tree::importance(&tree.nodes[c + 1], &rx, r),
+                );
+                let took = if w[1] == c { "left" } else { "right" };
+                let n = &tree.nodes[w[1]];
+                println!(
+                    "  level: left {ia:.2e} right {ib:.2e}, takes {took} (box {:?}..{:?}, weight {:.2e})",
+                    n.lo, n.hi, n.weight
+                );
+            }
+        }
+        let (mut c_sum, mut sel_k, mut pair_k, mut sqrt_sum) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        let mut sum_c2_plus_v = 0.0f64;
+        let mut terms = Vec::new();
+        for (i, vrl) in lights.vrls.iter().enumerate() {
+            let mut s = Sampler::new(seed ^ 0x1234, k as u32, i as u32);
+            let (mut m, mut m2) = (0.0f64, 0.0f64);
+            for _ in 0..pairs {
+                let x = luminance_mean(vbl_to_media(&ts, seg, vrl, r2, &settings, &mut s)) as f64;
+                m += x;
+                m2 += x * x;
+            }
+            evaluated += pairs as u64;
+            let c = m / pairs as f64;
+            let v = (m2 / pairs as f64 - c * c).max(0.0) * pairs as f64 / (pairs as f64 - 1.0);
+            c_sum += c;
+            sqrt_sum += (c * c + v).sqrt();
+            sum_c2_plus_v += c * c + v;
+            terms.push((i, c, v));
+            if flat[i] > 0.0 {
+                flat_k += (c * c + v) / flat[i];
+            }
+            if p[i] > 0.0 {
+                sel_k += c * c / p[i];
+                pair_k += v / p[i];
+            } else if c > 0.0 {
+                println!("light {i} contributes {c:.3e} to segment {k} but is never drawn");
+            }
+        }
+        for &(i, c, v) in &terms {
+            if p[i] > 0.0 {
+                let vrl = &lights.vrls[i];
+                let (o, d) = (glam::Vec3::from(seg.origin), glam::Vec3::from(seg.dir));
+                let (a, e) = (glam::Vec3::from(vrl.origin), glam::Vec3::from(vrl.dir));
+                let w = a - o;
+                let n = d.cross(e);
+                let gap = if n.length() > 1e-4 {
+                    (w.dot(n) / n.length()).abs()
+                } else {
+                    w.cross(d).length()
+                };
+                worst.push((
+                    (c * c + v) / p[i],
+                    format!(
+                        "seg {k} (len {:.2}) light {i} (len {:.2}, |cos| {:.2}, line gap {gap:.3}): p {:.2e} ideal {:.2e}, c/C {:.3}, √v/C {:.3}, imp {:.2e}",
+                        seg.length,
+                        vrl.length,
+                        d.dot(e).abs(),
+                        p[i],
+                        (c * c + v).sqrt() / sqrt_sum,
+                        c / c_sum,
+                        v.sqrt() / c_sum,
+                        beamlight_trace::light_tree::importance(&tree.nodes[leaf_of(&tree, i)], &rx, r),
+                    ),
+                ));
+            }
+        }
+        sel += sel_k - c_sum * c_sum;
+        flat_sel += flat_k - c_sum * c_sum;
+        pair += pair_k;
+        ideal += sqrt_sum * sqrt_sum - c_sum * c_sum;
+        uniform += lights.vrls.len() as f64 * sum_c2_plus_v - c_sum * c_sum;
+        c2 += c_sum * c_sum;
+    }
+    worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+    println!("largest terms (c² + v)/p, relative to Σ C²:");
+    for (x, text) in worst.iter().take(env("WORST", 12)) {
+        println!("  {:.3}  {text}", x / c2);
+    }
+    // What the leaves' importance costs: every segment of the sample against every light.
+    let timing = Instant::now();
+    let mut acc = 0.0f32;
+    let mut count = 0u64;
+    for seg in segs
+        .iter()
+        .step_by(step)
+        .cycle()
+        .take(env("REPEAT", 1) * segs.len().div_ceil(step))
+    {
+        let rx = Receiver::along_segment(&ts.scene, seg);
+        for n in tree.nodes.iter().filter(|n| n.is_leaf()) {
+            acc += beamlight_trace::light_tree::flat_importance(n, &rx, r);
+            count += 1;
+        }
+    }
+    println!(
+        "a leaf's importance costs {:.3} µs ({acc:.1e})",
+        timing.elapsed().as_secs_f64() / count as f64 * 1e6
+    );
+    let per_pair = clock.elapsed().as_secs_f64() / evaluated as f64;
+    println!("relative variance of one draw (Σ over segments / Σ C²):");
+    println!("  selection      {:.3}", sel / c2);
+    println!("  pair sampling  {:.3}", pair / c2);
+    println!("  total          {:.3}", (sel + pair) / c2);
+    println!(
+        "  flat selection by the leaves' importance (no tree): {:.3}",
+        flat_sel / c2
+    );
+    println!(
+        "  ideal p ∝ √(c² + v): {:.3}; uniform p: {:.3}",
+        ideal / c2,
+        uniform / c2
+    );
+    println!(
+        "a pair costs {:.2} µs (one thread, all pairs of the sample)",
+        per_pair * 1e6
+    );
+}
+
+/// The tree node holding light `i`.
+fn leaf_of(tree: &LightTree, i: usize) -> usize {
+    tree.nodes
+        .iter()
+        .position(|n| n.is_leaf() && n.light() as usize == i)
+        .expect("every light has a leaf")
+}
