@@ -208,7 +208,7 @@ pub(crate) struct RenderArgs {
     pub(crate) media_light_samples: Option<u32>,
     /// `vbl`: how camera media segments draw their virtual beam lights for `Lmm`: `descent`
     /// down the light tree, or `flat`, weighing every beam of the pass by its pair integral
-    /// with both phase functions (`Lmm` itself converges 2.4-4.6x faster in the glossy fog
+    /// with both phase functions (`Lmm` itself converges 2.3-3.8x faster in the glossy fog
     /// box, but each record pays an estimate per beam, so the other components get fewer
     /// passes; see docs/rendering.md)
     #[arg(long, value_enum, default_value = "descent")]

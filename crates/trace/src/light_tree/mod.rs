@@ -469,7 +469,7 @@ impl LightTree {
     /// `Lmm` had a relative variance of 59 descending, 37 drawing lights uniformly, 2.0 flat
     /// by [`flat_importance`], 1.1 with the ideal probabilities (`examples/lmm_variance.rs`).
     /// The cost is a [`flat_importance`] per light per record (0.4 µs; 220 VBLs a pass: about
-    /// 90 µs a record, against some 4 µs a drawn pair): `Lmm` alone then converges 2.4–4.6×
+    /// 90 µs a record, against some 4 µs a drawn pair): `Lmm` alone then converges 2.3–3.8×
     /// faster there, but the other components get fewer passes, and the whole image gained
     /// only in the glossy fog box (see docs/rendering.md), so it is not the default.
     ///
