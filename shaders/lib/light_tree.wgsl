@@ -281,6 +281,30 @@ fn phases_seen_from(rx: Receiver, dir: vec3<f32>, g_light: f32, r: f32, y: vec3<
     return 0.125 * angle * sum / h;
 }
 
+// `importance::Closest`: a segment light seen from the camera line.
+struct Closest {
+    l: f32,
+    dir: vec3<f32>,
+    u0: f32,
+    sin2: f32,
+}
+
+fn closest_on_light(a: vec3<f32>, b: vec3<f32>, rx: Receiver) -> Closest {
+    let l = length_glam(b - a);
+    let dir = (b - a) / l;
+    let w = a - rx.a;
+    let d = rx.b;
+    let cos = dot_glam(dir, d);
+    let sin2 = max(1.0 - cos * cos, 0.0);
+    var u0: f32;
+    if sin2 > 1e-6 {
+        u0 = (cos * dot_glam(d, w) - dot_glam(dir, w)) / sin2;
+    } else {
+        u0 = dot_glam(rx.a + d * (0.5 * rx.len) - a, dir);
+    }
+    return Closest(l, dir, clamp(u0, 0.0, l), sin2);
+}
+
 // `light_tree::importance`.
 fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
     let c = 0.5 * (node.lo + node.hi);
@@ -347,19 +371,12 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
         return node.weight * f * max(cos_bound, 1e-3) * falloff;
     }
     if is_segment {
-        let l = length_glam(b - a);
-        let dir = (b - a) / l;
-        let w = a - rx.a;
+        let near = closest_on_light(a, b, rx);
+        let l = near.l;
+        let dir = near.dir;
+        let u0 = near.u0;
+        let sin2 = near.sin2;
         let d = rx.b;
-        let cos = dot_glam(dir, d);
-        let sin2 = max(1.0 - cos * cos, 0.0);
-        var u0: f32;
-        if sin2 > 1e-6 {
-            u0 = (cos * dot_glam(d, w) - dot_glam(dir, w)) / sin2;
-        } else {
-            u0 = dot_glam(rx.a + d * (0.5 * rx.len) - a, dir);
-        }
-        u0 = clamp(u0, 0.0, l);
         let seen = seen_from(rx, a + dir * u0, 0.0, r);
         let s = max(sqrt(sin2), 1e-3);
         let along = (asinh_stable((l - u0) * s / seen.y) + asinh_stable(u0 * s / seen.y)) / s;
@@ -390,19 +407,11 @@ fn flat_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
     }
     let a = leaf_segment_start(node);
     let b = leaf_segment_end(node);
-    let l = length_glam(b - a);
-    let dir = (b - a) / l;
-    let w = a - rx.a;
-    let d = rx.b;
-    let cos = dot_glam(dir, d);
-    let sin2 = max(1.0 - cos * cos, 0.0);
-    var u0: f32;
-    if sin2 > 1e-6 {
-        u0 = (cos * dot_glam(d, w) - dot_glam(dir, w)) / sin2;
-    } else {
-        u0 = dot_glam(rx.a + d * (0.5 * rx.len) - a, dir);
-    }
-    u0 = clamp(u0, 0.0, l);
+    let near = closest_on_light(a, b, rx);
+    let l = near.l;
+    let dir = near.dir;
+    let u0 = near.u0;
+    let sin2 = near.sin2;
     let s = max(sqrt(sin2), 1e-3);
     let big_h = phases_off_line(rx, dir, r, a + dir * u0).h;
     let p = exp_asinh_m1((l - u0) * s / big_h);

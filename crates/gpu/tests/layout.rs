@@ -108,7 +108,8 @@ fn gather_structs_match() {
             light_samples,
             vsl_tree_nodes,
             vbl_tree_nodes,
-            poison
+            poison,
+            media_drawing
         ]
     );
     check!(

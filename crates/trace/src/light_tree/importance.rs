@@ -267,18 +267,7 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
                 // [asinh((L − u₀) s/H) + asinh(u₀ s/H)] / s, s = sin θ; or if larger, all of
                 // the light at the start.
                 Some((a, b)) => {
-                    let l = (b - a).length();
-                    let dir = (b - a) / l;
-                    let w = a - o;
-                    let cos = dir.dot(d);
-                    let sin2 = (1.0 - cos * cos).max(0.0);
-                    let u0 = if sin2 > 1e-6 {
-                        (cos * d.dot(w) - dir.dot(w)) / sin2
-                    } else {
-                        // Parallel: the point beside the camera segment's middle.
-                        (o + d * (0.5 * len) - a).dot(dir)
-                    }
-                    .clamp(0.0, l);
+                    let Closest { l, dir, u0, sin2 } = Closest::of(a, b, o, d, len);
                     let (angle, h) = seen_from(a + dir * u0, 0.0);
                     let s = sin2.sqrt().max(1e-3);
                     let along = (asinh((l - u0) * s / h) + asinh(u0 * s / h)) / s;
@@ -312,6 +301,33 @@ pub fn importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
     }
 }
 
+/// A segment light `a`→`b` seen from the camera line `o + d t` (a segment of length `len`):
+/// its length and direction, its point u₀ closest to the line (for parallel lines the one
+/// beside the camera segment's middle), clamped to it, and the squared sine between the lines.
+struct Closest {
+    l: f32,
+    dir: Vec3,
+    u0: f32,
+    sin2: f32,
+}
+
+impl Closest {
+    fn of(a: Vec3, b: Vec3, o: Vec3, d: Vec3, len: f32) -> Closest {
+        let l = (b - a).length();
+        let dir = (b - a) / l;
+        let w = a - o;
+        let cos = dir.dot(d);
+        let sin2 = (1.0 - cos * cos).max(0.0);
+        let u0 = if sin2 > 1e-6 {
+            (cos * d.dot(w) - dir.dot(w)) / sin2
+        } else {
+            (o + d * (0.5 * len) - a).dot(dir)
+        }
+        .clamp(0.0, l);
+        Closest { l, dir, u0, sin2 }
+    }
+}
+
 /// A leaf's importance for a flat draw ([`super::LightTree::flat_masses`]): for a VBL leaf and
 /// a camera segment the pair integral itself (below), otherwise [`importance`].
 pub fn flat_importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
@@ -333,18 +349,7 @@ pub fn flat_importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
     // `light_tree`) one point was 40× low or worse in 5 % of such configurations,
     // two points 2.3× in 5 %. Or, if larger, a light fading within its length: its
     // first mean free path seen from its start.
-    let l = (b - a).length();
-    let dir = (b - a) / l;
-    let w = a - o;
-    let cos = dir.dot(d);
-    let sin2 = (1.0 - cos * cos).max(0.0);
-    let u0 = if sin2 > 1e-6 {
-        (cos * d.dot(w) - dir.dot(w)) / sin2
-    } else {
-        // Parallel: the point beside the camera segment's middle.
-        (o + d * (0.5 * len) - a).dot(dir)
-    }
-    .clamp(0.0, l);
+    let Closest { l, dir, u0, sin2 } = Closest::of(a, b, o, d, len);
     let s = sin2.sqrt().max(1e-3);
     let phases = Phases {
         dir,
