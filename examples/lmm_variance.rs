@@ -15,7 +15,8 @@
 //!
 //! Settings by environment: SCENE (assets/scenes/cornell_glossy_fog.toml), SIZE (48), PASS
 //! (32, for the radius), RECORDS (200), PAIRS (64), SEED (1), REPEAT (1: passes of the
-//! importances' timing loop, for a profiler).
+//! importances' timing loop, for a profiler), SHARE (4: a flat draw whose masses are shared
+//! by that many consecutive records, neighbouring pixels of a row).
 //!
 //! `cargo run --release --example lmm_variance`
 use beamlight_render::radius::{default_radius, paths_squared_radius};
@@ -59,7 +60,8 @@ fn main() {
     );
     let (mut sel, mut pair, mut ideal, mut c2, mut uniform) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let mut evaluated = 0u64;
-    let mut flat_sel = 0.0f64;
+    let (mut flat_sel, mut shared_sel) = (0.0f64, 0.0f64);
+    let share: usize = env("SHARE", 4);
     // The worst terms: (their share of the sample's variance, description).
     let mut worst: Vec<(f64, String)> = Vec::new();
     let clock = Instant::now();
@@ -68,17 +70,24 @@ fn main() {
         let p = tree.pmfs(&rx, r, lights.vrls.len());
         // Flat selection by each leaf's own importance (no tree above it), 10 % by flux.
         let leaves: Vec<usize> = (0..lights.vrls.len()).map(|i| leaf_of(&tree, i)).collect();
-        let imp: Vec<f64> = leaves
-            .iter()
-            .map(|&n| beamlight_trace::light_tree::flat_importance(&tree.nodes[n], &rx, r) as f64)
-            .collect();
-        let wts: Vec<f64> = leaves.iter().map(|&n| tree.nodes[n].weight as f64).collect();
-        let (isum, wsum) = (imp.iter().sum::<f64>(), wts.iter().sum::<f64>());
-        let flat: Vec<f64> = imp
-            .iter()
-            .zip(&wts)
-            .map(|(i, w)| 0.9 * i / isum + 0.1 * w / wsum)
-            .collect();
+        let masses = |rx: &Receiver| -> Vec<f64> {
+            let imp: Vec<f64> = leaves
+                .iter()
+                .map(|&n| beamlight_trace::light_tree::flat_importance(&tree.nodes[n], rx, r) as f64)
+                .collect();
+            let wts: Vec<f64> = leaves.iter().map(|&n| tree.nodes[n].weight as f64).collect();
+            let (isum, wsum) = (imp.iter().sum::<f64>(), wts.iter().sum::<f64>());
+            imp.iter()
+                .zip(&wts)
+                .map(|(i, w)| 0.9 * i / isum + 0.1 * w / wsum)
+                .collect()
+        };
+        let flat = masses(&rx);
+        // The same masses shared by a run of SHARE consecutive records (neighbouring pixels
+        // of a row): every record of the run draws by its first record's.
+        let first = k - k % share;
+        let shared = masses(&Receiver::along_segment(&ts.scene, &segs[first]));
+        let mut shared_k = 0.0f64;
         let mut flat_k = 0.0f64;
         if std::env::var("TRACE").is_ok_and(|t| t.split(',').any(|x| x == format!("{k}"))) {
             // The descent to each of the worst lights: importances of both children per level.
@@ -129,6 +138,9 @@ fn main() {
             if flat[i] > 0.0 {
                 flat_k += (c * c + v) / flat[i];
             }
+            if shared[i] > 0.0 {
+                shared_k += (c * c + v) / shared[i];
+            }
             if p[i] > 0.0 {
                 sel_k += c * c / p[i];
                 pair_k += v / p[i];
@@ -166,6 +178,7 @@ fn main() {
         }
         sel += sel_k - c_sum * c_sum;
         flat_sel += flat_k - c_sum * c_sum;
+        shared_sel += shared_k - c_sum * c_sum;
         pair += pair_k;
         ideal += sqrt_sum * sqrt_sum - c_sum * c_sum;
         uniform += lights.vrls.len() as f64 * sum_c2_plus_v - c_sum * c_sum;
@@ -204,6 +217,10 @@ fn main() {
     println!(
         "  flat selection by the leaves' importance (no tree): {:.3}",
         flat_sel / c2
+    );
+    println!(
+        "  flat, the masses of the first of {share} consecutive records shared: {:.3}",
+        shared_sel / c2
     );
     println!(
         "  ideal p ∝ √(c² + v): {:.3}; uniform p: {:.3}",
