@@ -15,6 +15,13 @@
 //   fn record_receiver(r: GatherRecord) -> Receiver  what the tree's bounds are taken for
 //   fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32>
 
+// A drawn light's term: its pair from the stream of record `i`'s slot `slot`, admitted, over
+// its probability.
+fn drawn_term(r: GatherRecord, i: u32, slot: u32, pick: Pick, discarded: ptr<function, u32>) -> vec3<f32> {
+    var s = drawn_pair_sampler(GATHER_KIND, i, slot);
+    return admit(light_contribution(r, pick.light, &s), discarded) / pick.pmf;
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = record_index(gid);
@@ -31,49 +38,45 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 var s = pair_sampler(GATHER_KIND, i, j);
                 sum += admit(light_contribution(r, j, &s), &discarded);
             }
-        } else if tree.y > 0u && GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
-            // `Lmm`: every leaf weighed at once (`LightTree::sample_flat_k`); each drawn
-            // light's pair is estimated as the running sum passes its slot's number.
-            let receiver = record_receiver(r);
-            let xi = selection_number(GATHER_KIND, i);
-            let radius = sqrt(max(params.radius2, 0.0));
-            let sums = flat_sums(tree, receiver, radius);
-            if sums.y > 0.0 {
-                var slot = 0u;
-                var running = 0.0;
-                var last = Pick(0u, 0.0, false);
-                for (var n = 0u; n < tree.y; n++) {
-                    let node = light_tree[tree.x + n];
-                    if (node.child & LIGHT_LEAF) == 0u {
-                        continue;
-                    }
-                    let pick = Pick(node.child & LIGHT_MASK, flat_mass(flat_importance(node, receiver, radius), node.weight, sums.x, sums.y), true);
-                    running += pick.pmf;
-                    if pick.pmf > 0.0 {
-                        last = pick;
-                    }
-                    while slot < params.light_samples && flat_threshold(slot, xi) < running {
-                        var s = drawn_pair_sampler(GATHER_KIND, i, slot);
-                        sum += admit(light_contribution(r, pick.light, &s), &discarded) / pick.pmf;
-                        slot++;
-                    }
-                }
-                // A number beyond the whole sum, by rounding: the last leaf with a mass.
-                while slot < params.light_samples && last.found {
-                    var s = drawn_pair_sampler(GATHER_KIND, i, slot);
-                    sum += admit(light_contribution(r, last.light, &s), &discarded) / last.pmf;
-                    slot++;
-                }
-            }
-            sum = sum / f32(params.light_samples);
         } else if tree.y > 0u {
             let receiver = record_receiver(r);
             let xi = selection_number(GATHER_KIND, i);
-            for (var k = 0u; k < params.light_samples; k++) {
-                let pick = tree_sample_slot(tree.x, receiver, GATHER_KIND, i, k, xi);
-                if pick.found {
-                    var s = drawn_pair_sampler(GATHER_KIND, i, k);
-                    sum += admit(light_contribution(r, pick.light, &s), &discarded) / pick.pmf;
+            if GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
+                // `Lmm` drawn flat: every leaf weighed at once (`LightTree::sample_flat_k`);
+                // each drawn light's pair is estimated as the running sum passes its number.
+                let radius = sqrt(max(params.radius2, 0.0));
+                let sums = flat_sums(tree, receiver, radius);
+                if sums.y > 0.0 {
+                    var slot = 0u;
+                    var running = 0.0;
+                    var last = Pick(0u, 0.0, false);
+                    for (var n = 0u; n < tree.y; n++) {
+                        let node = light_tree[tree.x + n];
+                        if (node.child & LIGHT_LEAF) == 0u {
+                            continue;
+                        }
+                        let pick = Pick(node.child & LIGHT_MASK, flat_mass(flat_importance(node, receiver, radius), node.weight, sums.x, sums.y), true);
+                        running += pick.pmf;
+                        if pick.pmf > 0.0 {
+                            last = pick;
+                        }
+                        while slot < params.light_samples && flat_threshold(slot, xi) < running {
+                            sum += drawn_term(r, i, slot, pick, &discarded);
+                            slot++;
+                        }
+                    }
+                    // A number beyond the whole sum, by rounding: the last leaf with a mass.
+                    while slot < params.light_samples && last.found {
+                        sum += drawn_term(r, i, slot, last, &discarded);
+                        slot++;
+                    }
+                }
+            } else {
+                for (var k = 0u; k < params.light_samples; k++) {
+                    let pick = tree_sample_slot(tree.x, receiver, GATHER_KIND, i, k, xi);
+                    if pick.found {
+                        sum += drawn_term(r, i, k, pick, &discarded);
+                    }
                 }
             }
             sum = sum / f32(params.light_samples);

@@ -67,8 +67,7 @@ fn phase_ratio(g: f32, cos_t: f32) -> f32 {
 
 // `light_tree::asinh`: stable near 0, where the builtin may cancel.
 fn asinh_stable(x: f32) -> f32 {
-    let a = abs(x);
-    let v = log_1p(a + a * a / (1.0 + sqrt(1.0 + a * a)));
+    let v = log_1p(exp_asinh_m1(abs(x)));
     return select(v, -v, x < 0.0);
 }
 

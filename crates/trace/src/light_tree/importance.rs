@@ -125,8 +125,7 @@ fn phase_ratio(g: f32, cos: f32) -> f32 {
 /// WGSL twin computes it: the GPU's own `asinh` may cancel there, and a choice in the descent
 /// would then differ from the CPU's).
 fn asinh(x: f32) -> f32 {
-    let a = x.abs();
-    (a + a * a / (1.0 + (1.0 + a * a).sqrt())).ln_1p().copysign(x)
+    exp_asinh_m1(x.abs()).ln_1p().copysign(x)
 }
 
 /// The phase ratio for light travelling along `travel` that turns towards `to` (neither need
@@ -403,9 +402,10 @@ impl Phases {
     /// turning it towards the camera, y's distance h to the camera line floored at r. With
     /// t − t_c = h tan φ the integral is (1/h) ∫ F dφ over the angle the segment subtends,
     /// here by the midpoint rule on eight panels, the directions found by bisection: no
-    /// trigonometry but one arctangent, for the angle (`examples/lmm_variance.rs`: a draw's
-    /// variance 2.5 at 0.27 µs a light; four panels 3.2 at 0.22 µs; Simpson's rule, whose end
-    /// points sit on the phase functions' forward peaks, 19).
+    /// trigonometry but one arctangent, for the angle (`examples/lmm_variance.rs`, measured
+    /// with one point along the VBL: a draw's variance 2.5 at 0.27 µs a light; four panels 3.2
+    /// at 0.22 µs; Simpson's rule, whose end points sit on the phase functions' forward peaks,
+    /// 19).
     ///
     /// Why the phase functions at every direction and not at the closest points (a right
     /// angle): a light running against the camera ray close beside it sends its light

@@ -474,7 +474,7 @@ impl LightTree {
     /// only in the glossy fog box (see docs/rendering.md), so it is not the default.
     ///
     /// The sums are taken in node order, one light after the other, as the GPU's twin
-    /// (`flat_mass` in `shaders/lib/light_tree.wgsl`) takes them.
+    /// (`flat_sums` in `shaders/lib/light_tree.wgsl`) takes them.
     pub fn flat_masses(&self, rx: &Receiver, r: f32) -> Vec<(u32, f32)> {
         let leaves = || self.nodes.iter().filter(|n| n.is_leaf());
         let importances: Vec<f32> = leaves().map(|n| flat_importance(n, rx, r)).collect();
