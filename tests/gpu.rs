@@ -16,7 +16,7 @@ use beamlight_trace::{
     camera_paths::{CameraPathSettings, trace_camera_paths},
     components::Component,
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{Drawing, LightTree, Receiver},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, AngularPdf, VblSettings},
     vpl, vrl,
@@ -539,21 +539,20 @@ fn per_drawn<R>(
     (pair_seed, pass): (u32, u32),
     f: impl Fn(usize, &R, u32, usize) -> Rgb,
 ) -> Vec<Rgb> {
+    let groups = (Drawing::of(kind, drawing) == Drawing::Flat)
+        .then(|| tree.group_masses(records.len(), r, |i| receiver(&records[i])));
     records
         .iter()
         .enumerate()
         .map(|(i, rec)| {
+            let draw = groups
+                .as_ref()
+                .map_or(Draw::Descent, |g| Draw::Flat(&g[i / FLAT_GROUP]));
             let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
             let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
-            tree.estimate(
-                &receiver(rec),
-                r,
-                samples,
-                xi,
-                Drawing::of(kind, drawing),
-                descent,
-                |slot, j| f(i, rec, slot, j),
-            ) / m
+            tree.estimate(&receiver(rec), r, samples, xi, draw, descent, |slot, j| {
+                f(i, rec, slot, j)
+            }) / m
         })
         .collect()
 }

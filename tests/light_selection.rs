@@ -15,7 +15,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{Drawing, LightTree, Receiver},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
 };
@@ -90,24 +90,21 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
             .map(|run| {
                 let pair_seed = ps(1000 + run);
                 let mut total = DVec3::ZERO;
+                let groups = (Drawing::of(kind, drawing) == Drawing::Flat)
+                    .then(|| tree.group_masses(records.len(), r, |i| receiver(&records[i])));
                 for (i, rec) in records.iter().enumerate() {
+                    let draw = groups
+                        .as_ref()
+                        .map_or(Draw::Descent, |g| Draw::Flat(&g[i / FLAT_GROUP]));
                     let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
                     let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
-                    let v = tree.estimate(
-                        &receiver(rec),
-                        r,
-                        k,
-                        xi,
-                        Drawing::of(kind, drawing),
-                        descent,
-                        |slot, j| {
-                            f(
-                                rec,
-                                j,
-                                &mut streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot),
-                            )
-                        },
-                    );
+                    let v = tree.estimate(&receiver(rec), r, k, xi, draw, descent, |slot, j| {
+                        f(
+                            rec,
+                            j,
+                            &mut streams::drawn_pair_sampler(pair_seed, pass, kind, i as u32, slot),
+                        )
+                    });
                     assert!(v.is_finite(), "{what}: record {i} gave {v}");
                     total += v.as_dvec3();
                 }

@@ -14,7 +14,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{Drawing, LightTree, Receiver},
+    light_tree::{Draw, Drawing, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
@@ -230,15 +230,9 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
         let estimate = |i: usize, rx: Receiver, f: &(dyn Fn(usize, &mut Sampler) -> Rgb + Sync)| {
             let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
             let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
-            tree.estimate(
-                &rx,
-                r,
-                samples,
-                xi,
-                Drawing::of(kind, Drawing::Descent),
-                descent,
-                |slot, j| f(j, &mut drawn(i, slot)),
-            )
+            tree.estimate(&rx, r, samples, xi, Draw::Descent, descent, |slot, j| {
+                f(j, &mut drawn(i, slot))
+            })
         };
         let clock = Instant::now();
         let total: Rgb = if k.on_surfaces() {

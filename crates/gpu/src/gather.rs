@@ -234,7 +234,10 @@ impl Gathers {
     /// Dispatches are also sized by work: at most [`PAIRS_PER_DISPATCH`] (record, light)
     /// pairs each (`pairs_per_record` is the lights a record gathers or draws), so that no
     /// dispatch runs long enough for a display GPU's watchdog to kill it.
+    /// A multiple of 16 is also a multiple of the flat draw's group
+    /// ([`beamlight_trace::light_tree::FLAT_GROUP`]), so a group never spans two dispatches.
     fn records_per_dispatch(&self, gpu: &Gpu, pairs_per_record: usize) -> usize {
+        const { assert!(16 % beamlight_trace::light_tree::FLAT_GROUP == 0) };
         let fits = compute::max_binding(gpu) as usize / size_of::<ShadingPoint>();
         let work = PAIRS_PER_DISPATCH / pairs_per_record.max(1);
         (fits.min(work) / 16 * 16).clamp(16, self.chunk_limit)

@@ -10,7 +10,7 @@ use beamlight_trace::{
     direct,
     gather::GatherInputs,
     light_paths::{LightSegment, SurfaceVertex},
-    light_tree::{Drawing, LightTree, Receiver},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
     vpl, vrl,
@@ -192,36 +192,73 @@ impl PassGathers<'_> {
     ) -> Vec<RecordEstimate> {
         let ts = self.ts;
         records
-            .par_iter()
+            .par_chunks(FLAT_GROUP)
             .enumerate()
-            .map(|(i, record)| {
-                let mut e = RecordEstimate::new(record.pixel());
-                let credit = credits[i];
-                let want = |component: Component| self.computed[credited(component, credit) as usize];
-                if let Some(k) = credit.map(|k| k as usize).filter(|&k| self.computed[k]) {
-                    // A walk record's direct light; the camera's records' is part of
-                    // `direct_light`.
-                    let mut sd = direct_stream(self.seed, self.inputs.pass, R::DIRECT_STREAM, i);
-                    let v = timed(&mut e.seconds[k], || record.direct(ts, &mut sd));
-                    e.add(k, v);
-                }
-                if self.virtual_lights && record.gathers(ts) {
-                    let rx = self.selection.map(|sel| (sel, record.receiver(&ts.scene)));
-                    if want(R::FROM_POINTS.0) {
-                        self.gather(&mut e, (i, record), credit, rx.as_ref(), LightSet::Points);
+            .flat_map_iter(|(group, chunk)| {
+                let first = group * FLAT_GROUP;
+                let mut shared = self.shared_flat_masses::<R>(chunk, &credits[first..first + chunk.len()]);
+                chunk.iter().enumerate().map(move |(o, record)| {
+                    let i = first + o;
+                    let mut e = RecordEstimate::new(record.pixel());
+                    let credit = credits[i];
+                    let want = |component: Component| self.computed[credited(component, credit) as usize];
+                    if let Some(k) = credit.map(|k| k as usize).filter(|&k| self.computed[k]) {
+                        // A walk record's direct light; the camera's records' is part of
+                        // `direct_light`.
+                        let mut sd = direct_stream(self.seed, self.inputs.pass, R::DIRECT_STREAM, i);
+                        let v = timed(&mut e.seconds[k], || record.direct(ts, &mut sd));
+                        e.add(k, v);
                     }
-                    if want(R::FROM_RAYS.0) {
-                        self.gather(&mut e, (i, record), credit, rx.as_ref(), LightSet::Rays);
+                    if self.virtual_lights && record.gathers(ts) {
+                        let rx = self.selection.map(|sel| (sel, record.receiver(&ts.scene)));
+                        if want(R::FROM_POINTS.0) {
+                            self.gather(&mut e, (i, record), credit, rx.as_ref(), LightSet::Points, None);
+                        }
+                        if want(R::FROM_RAYS.0) {
+                            let masses = shared.as_mut().map(|(masses, seconds)| {
+                                // The group's masses are timed once, at the first record that
+                                // draws by them.
+                                e.seconds[credited(R::FROM_RAYS.0, credit) as usize] += std::mem::take(seconds);
+                                masses.as_slice()
+                            });
+                            self.gather(&mut e, (i, record), credit, rx.as_ref(), LightSet::Rays, masses);
+                        }
                     }
-                }
-                if let Some(caustic) = caustic {
-                    let k = credited(R::CAUSTIC, credit) as usize;
-                    let v = timed(&mut e.seconds[k], || caustic(i, record));
-                    e.add(k, injected(v, self.poison(i, 1)));
-                }
-                e
+                    if let Some(caustic) = caustic {
+                        let k = credited(R::CAUSTIC, credit) as usize;
+                        let v = timed(&mut e.seconds[k], || caustic(i, record));
+                        e.add(k, injected(v, self.poison(i, 1)));
+                    }
+                    e
+                })
             })
             .collect()
+    }
+
+    /// The flat draw's masses ([`LightTree::flat_masses`]) that a group of records (`chunk`,
+    /// [`FLAT_GROUP`] of them) shares for their ray-like lights, with the seconds they took:
+    /// those of the first record's receiver, when this kind of record draws flat and some
+    /// record of the group gathers them. `None` otherwise.
+    fn shared_flat_masses<R: Record>(
+        &self,
+        chunk: &[R],
+        credits: &[Option<Component>],
+    ) -> Option<(Vec<(u32, f32)>, f64)> {
+        let sel = self
+            .selection
+            .filter(|sel| Drawing::of(R::FROM_RAYS.1, sel.media_drawing) == Drawing::Flat)?;
+        let ts = self.ts;
+        let gathered = chunk.iter().zip(credits).any(|(record, &credit)| {
+            self.virtual_lights && record.gathers(ts) && self.computed[credited(R::FROM_RAYS.0, credit) as usize]
+        });
+        if !gathered || sel.vbls.is_empty() {
+            return None;
+        }
+        let mut seconds = 0.0;
+        let masses = timed(&mut seconds, || {
+            sel.vbls.flat_masses(&chunk[0].receiver(&ts.scene), sel.r)
+        });
+        Some((masses, seconds))
     }
 
     /// Record `i`'s gather over one light set (the lights it draws with light selection,
@@ -234,6 +271,7 @@ impl PassGathers<'_> {
         credit: Option<Component>,
         rx: Option<&(&Selection, Receiver)>,
         set: LightSet,
+        flat: Option<&[(u32, f32)]>,
     ) {
         let (ts, inputs) = (self.ts, self.inputs);
         let est = Estimators {
@@ -251,7 +289,8 @@ impl PassGathers<'_> {
                 LightSet::Points => &sel.vsls,
                 LightSet::Rays => &sel.vbls,
             };
-            (*sel, tree, rx)
+            let draw = flat.map_or(Draw::Descent, Draw::Flat);
+            (*sel, tree, rx, draw)
         });
         let own = component as usize;
         let v = gather_lights(
@@ -327,15 +366,15 @@ pub(crate) struct Selection {
 
 impl Selection {
     /// [`LightTree::estimate`] for record `record` of kind `kind` with its streams
-    /// ([`streams`]: the selection number, each slot's descent and drawn pair), `f(light,
-    /// stream)` the drawn light's contribution, each [`admit`]ted (counted in `discarded`); its
-    /// CPU time added to `seconds` (an empty tree is not timed).
+    /// ([`streams`]: the selection number, each slot's descent and drawn pair), drawn as
+    /// `draw` says, `f(light, stream)` the drawn light's contribution, each [`admit`]ted
+    /// (counted in `discarded`); its CPU time added to `seconds` (an empty tree is not timed).
     #[allow(clippy::too_many_arguments)]
     fn timed_estimate(
         &self,
         seconds: &mut f64,
         discarded: &mut u64,
-        tree: &LightTree,
+        (tree, draw): (&LightTree, Draw),
         rx: &Receiver,
         kind: GatherKind,
         record: usize,
@@ -355,7 +394,7 @@ impl Selection {
                     self.k
                 },
                 streams::selection_number(seed, pass, kind, i),
-                Drawing::of(kind, self.media_drawing),
+                draw,
                 |slot| streams::selection_sampler(seed, pass, kind, i, slot),
                 |slot, j| {
                     admit(
@@ -369,20 +408,20 @@ impl Selection {
 }
 
 /// One record's gather over a set of `lights` virtual lights, before the division by the path
-/// count M: with light selection, the lights `drawn` from its tree for the record's receiver;
-/// without, every light, each with its pair's stream. `f(index, stream)` is light `index`'s
-/// contribution; the
-/// gather's CPU time and discards go to `(seconds, discarded)`; `(kind, record, pair_seed,
-/// pass)` name the record's streams ([`streams`]).
+/// count M: with light selection, the lights `drawn` from its tree for the record's receiver
+/// (down the tree or by a flat draw's masses); without, every light, each with its pair's
+/// stream. `f(index, stream)` is light `index`'s contribution; the gather's CPU time and
+/// discards go to `(seconds, discarded)`; `(kind, record, pair_seed, pass)` name the record's
+/// streams ([`streams`]).
 pub(crate) fn gather_lights(
-    drawn: Option<(&Selection, &LightTree, &Receiver)>,
+    drawn: Option<(&Selection, &LightTree, &Receiver, Draw)>,
     (seconds, discarded): (&mut f64, &mut u64),
     lights: usize,
     (kind, record, pair_seed, pass): (GatherKind, usize, u32, u32),
     f: &dyn Fn(usize, &mut Sampler) -> Rgb,
 ) -> Rgb {
     match drawn {
-        Some((sel, tree, rx)) => sel.timed_estimate(seconds, discarded, tree, rx, kind, record, f),
+        Some((sel, tree, rx, draw)) => sel.timed_estimate(seconds, discarded, (tree, draw), rx, kind, record, f),
         None => timed_sum(seconds, discarded, lights, |j| {
             f(
                 j,

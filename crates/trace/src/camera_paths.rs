@@ -156,55 +156,63 @@ pub fn trace_camera_paths(
     let cam = &ts.scene.camera;
     // Only scenes with a sharp medium walk.
     let walks = settings.walks && ts.scene.media.iter().any(|m| crate::components::is_sharp(m.g));
-    // Rows in parallel, each into its own set; joined in row order, so the records' order
-    // (which keys their random streams) is the same on any number of threads.
-    let rows: Vec<GatherSet> = (0..height)
+    // Bands of TILE rows in parallel, each into its own set, its pixels in TILE × TILE tiles
+    // (so that consecutive records are neighbours on the image, as the flat draw's groups
+    // assume: `light_tree::FLAT_GROUP`); joined in band order, so the records' order (which
+    // keys their random streams) is the same on any number of threads.
+    const TILE: u32 = 4;
+    let bands: Vec<GatherSet> = (0..height.div_ceil(TILE))
         .into_par_iter()
-        .map(|y| {
-            let mut row = GatherSet {
+        .map(|band| {
+            let rows = band * TILE..((band + 1) * TILE).min(height);
+            let mut part = GatherSet {
                 width,
-                height: 1,
-                emitted: vec![Rgb::ZERO; width as usize],
+                height: rows.len() as u32,
+                emitted: vec![Rgb::ZERO; (width * rows.len() as u32) as usize],
                 ..Default::default()
             };
-            for x in 0..width {
-                let pixel = y * width + x;
-                let mut s = Sampler::new(seed, pass, pixel);
-                let j = s.next_2d();
-                let film = Vec2::new((x as f32 + j.x) / width as f32, (y as f32 + j.y) / height as f32);
-                let d = cam.direction(film, width as f32 / height as f32);
-                let first = row.media_segments.len();
-                row.emitted[x as usize] = trace_one(
-                    ts,
-                    settings,
-                    pixel,
-                    cam.position(),
-                    d,
-                    ts.camera_medium,
-                    &mut s,
-                    &mut row,
-                );
-                if walks {
-                    // A stream of its own, so that walks leave the camera paths' streams as
-                    // they are.
-                    let mut sw = Sampler::new(seed ^ WALK_SALT, pass, pixel);
-                    let walk = (&mut row.walk_segments, &mut row.walk_points);
-                    walk_sharp_media(ts, settings, &row.media_segments[first..], &mut sw, walk);
+            for x0 in (0..width).step_by(TILE as usize) {
+                for y in rows.clone() {
+                    for x in x0..(x0 + TILE).min(width) {
+                        let pixel = y * width + x;
+                        let mut s = Sampler::new(seed, pass, pixel);
+                        let j = s.next_2d();
+                        let film = Vec2::new((x as f32 + j.x) / width as f32, (y as f32 + j.y) / height as f32);
+                        let d = cam.direction(film, width as f32 / height as f32);
+                        let first = part.media_segments.len();
+                        part.emitted[((y - rows.start) * width + x) as usize] = trace_one(
+                            ts,
+                            settings,
+                            pixel,
+                            cam.position(),
+                            d,
+                            ts.camera_medium,
+                            &mut s,
+                            &mut part,
+                        );
+                        if walks {
+                            // A stream of its own, so that walks leave the camera paths'
+                            // streams as they are.
+                            let mut sw = Sampler::new(seed ^ WALK_SALT, pass, pixel);
+                            let walk = (&mut part.walk_segments, &mut part.walk_points);
+                            walk_sharp_media(ts, settings, &part.media_segments[first..], &mut sw, walk);
+                        }
+                    }
                 }
             }
-            row
+            part
         })
         .collect();
     let mut set = GatherSet {
         width,
         height,
-        shading_points: Vec::with_capacity(rows.iter().map(|r| r.shading_points.len()).sum()),
-        media_segments: Vec::with_capacity(rows.iter().map(|r| r.media_segments.len()).sum()),
-        walk_segments: Vec::with_capacity(rows.iter().map(|r| r.walk_segments.len()).sum()),
-        walk_points: Vec::with_capacity(rows.iter().map(|r| r.walk_points.len()).sum()),
+        shading_points: Vec::with_capacity(bands.iter().map(|r| r.shading_points.len()).sum()),
+        media_segments: Vec::with_capacity(bands.iter().map(|r| r.media_segments.len()).sum()),
+        walk_segments: Vec::with_capacity(bands.iter().map(|r| r.walk_segments.len()).sum()),
+        walk_points: Vec::with_capacity(bands.iter().map(|r| r.walk_points.len()).sum()),
         emitted: Vec::with_capacity((width * height) as usize),
     };
-    for row in rows {
+    for row in bands {
         set.shading_points.extend(row.shading_points);
         set.media_segments.extend(row.media_segments);
         set.walk_segments.extend(row.walk_segments);

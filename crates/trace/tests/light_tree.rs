@@ -251,7 +251,7 @@ fn flat_draws_pass_chi_square() {
         let mut observed = vec![0.0f64; lights.len()];
         let mut s = Sampler::new(7, t as u32, 0);
         for _ in 0..N {
-            let picks = tree.sample_flat_k(rx, R, 1, s.next_1d());
+            let picks = LightTree::sample_flat_k(&masses, 1, s.next_1d());
             assert_eq!(picks.len(), 1);
             let want = pmf[picks[0].light as usize];
             assert!(want > 0.0, "drew light {} of zero probability", picks[0].light);
@@ -262,7 +262,7 @@ fn flat_draws_pass_chi_square() {
         let r = chi2_test(&observed, &expected, alpha).unwrap_or_else(|e| panic!("receiver {t}: {e}"));
         eprintln!("receiver {t} (flat): {r:?}");
         // K stratified picks: one per stratum, in slot order, each where its number falls.
-        let picks = tree.sample_flat_k(rx, R, 16, 0.37);
+        let picks = LightTree::sample_flat_k(&masses, 16, 0.37);
         assert_eq!(
             picks.iter().map(|p| p.slot).collect::<Vec<_>>(),
             (0..16).collect::<Vec<_>>()
