@@ -42,10 +42,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let receiver = record_receiver(r);
             let xi = selection_number(GATHER_KIND, i);
             if GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
-                // `Lmm` drawn flat: every leaf weighed at once (`LightTree::sample_flat_k`);
-                // each drawn light's pair is estimated as the running sum passes its number.
+                // `Lmm` drawn flat: every leaf weighed at once (`LightTree::sample_flat_k`) for
+                // the receiver of the record's group's first (`FLAT_GROUP`); each drawn
+                // light's pair is estimated as the running sum passes its number.
                 let radius = sqrt(max(params.radius2, 0.0));
-                let sums = flat_sums(tree, receiver, radius);
+                let group = record_receiver(gather_record(flat_group_first(i)));
+                let sums = flat_sums(tree, group, radius);
                 if sums.y > 0.0 {
                     var slot = 0u;
                     var running = 0.0;
@@ -55,7 +57,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                         if (node.child & LIGHT_LEAF) == 0u {
                             continue;
                         }
-                        let pick = Pick(node.child & LIGHT_MASK, flat_mass(flat_importance(node, receiver, radius), node.weight, sums.x, sums.y), true);
+                        let pick = Pick(node.child & LIGHT_MASK, flat_mass(flat_importance(node, group, radius), node.weight, sums.x, sums.y), true);
                         running += pick.pmf;
                         if pick.pmf > 0.0 {
                             last = pick;

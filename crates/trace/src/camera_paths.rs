@@ -157,9 +157,11 @@ pub fn trace_camera_paths(
     // Only scenes with a sharp medium walk.
     let walks = settings.walks && ts.scene.media.iter().any(|m| crate::components::is_sharp(m.g));
     // Bands of TILE rows in parallel, each into its own set, its pixels in TILE × TILE tiles
-    // (so that consecutive records are neighbours on the image, as the flat draw's groups
-    // assume: `light_tree::FLAT_GROUP`); joined in band order, so the records' order (which
-    // keys their random streams) is the same on any number of threads.
+    // (so that consecutive media segments are neighbours on the image, as the flat draw's
+    // groups assume: `light_tree::FLAT_GROUP`); joined in band order, so the records' order
+    // (which keys their random streams) is the same on any number of threads. Shading points
+    // share nothing between records: they are put back in row order (a stable sort by pixel
+    // keeps a pixel's own in path order), so their streams stay those of a row-by-row trace.
     const TILE: u32 = 4;
     let bands: Vec<GatherSet> = (0..height.div_ceil(TILE))
         .into_par_iter()
@@ -200,6 +202,7 @@ pub fn trace_camera_paths(
                     }
                 }
             }
+            part.shading_points.sort_by_key(|sp| sp.pixel);
             part
         })
         .collect();

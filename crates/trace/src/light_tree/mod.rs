@@ -36,9 +36,10 @@
 //! a/(a+b) of the children's importances; the product of the choices is the leaf's
 //! probability. K lights per record make their root choices with the stratified numbers
 //! (k + ξ)/K, their deeper ones with fresh numbers (see [`LightTree::sample`]). Camera media
-//! segments may draw VBLs flat instead (`--media-light-draw flat`, [`Drawing`]): every leaf at
-//! once, by its own importance, the same stratified numbers on the running sum
-//! ([`LightTree::flat_masses`] says when that pays). The estimate
+//! segments may draw VBLs flat instead (`--media-light-draw flat`, [`Drawing`]):
+//! every leaf at once, by its own importance for the first record of a group of neighbours
+//! ([`FLAT_GROUP`]), the same stratified numbers on the running sum
+//! ([`LightTree::flat_masses`] says why). The estimate
 //! Σ f(light)/(K p(light)) is unbiased against the all-pairs sum as long as p > 0 wherever
 //! f ≠ 0: the importance is positive except for boxes of VSLs that provably cannot contribute
 //! (below the receiver's horizon),
@@ -120,7 +121,8 @@ pub enum Drawing {
     /// Down from the root, by the children's importances ([`LightTree::sample`]).
     #[default]
     Descent,
-    /// From all leaves at once, by each one's importance ([`LightTree::flat_masses`]).
+    /// From all leaves at once, by each one's importance ([`LightTree::flat_masses`]), the
+    /// masses shared by groups of records ([`FLAT_GROUP`]).
     Flat,
 }
 
@@ -494,10 +496,9 @@ impl LightTree {
     /// runs against the camera ray beside it by thousands. In the glossy fog box a draw of
     /// `Lmm` had a relative variance of 59 descending, 37 drawing lights uniformly, 2.0 flat
     /// by [`flat_importance`], 1.1 with the ideal probabilities (`examples/lmm_variance.rs`).
-    /// The cost is a [`flat_importance`] per light per record (0.4 µs; 220 VBLs a pass: about
-    /// 90 µs a record, against some 4 µs a drawn pair): `Lmm` alone then converges 2.3–3.8×
-    /// faster there, but the other components get fewer passes, and the whole image gained
-    /// only in the glossy fog box (see docs/rendering.md), so it is not the default.
+    /// The cost is a [`flat_importance`] per light (0.4 µs; 220 VBLs a pass: about 90 µs)
+    /// for each group of [`FLAT_GROUP`] records that shares the masses, against some 4 µs a
+    /// drawn pair (see docs/rendering.md for what it gains).
     ///
     /// The sums are taken in node order, one light after the other, as the GPU's twin
     /// (`flat_sums` in `shaders/lib/light_tree.wgsl`) takes them.
