@@ -16,7 +16,8 @@
 //! Settings by environment: SCENE (assets/scenes/cornell_glossy_fog.toml), SIZE (48), PASS
 //! (32, for the radius), RECORDS (200), PAIRS (64), SEED (1), REPEAT (1: passes of the
 //! importances' timing loop, for a profiler), SHARE (4: a flat draw whose masses are shared
-//! by that many consecutive records, neighbouring pixels of a row).
+//! by that many consecutive records: camera records are traced in 4×4 tiles of pixels, so 16
+//! is a tile, the renderer's `light_tree::FLAT_GROUP`).
 //!
 //! `cargo run --release --example lmm_variance`
 use beamlight_render::radius::{default_radius, paths_squared_radius};
@@ -84,7 +85,7 @@ fn main() {
         };
         let flat = masses(&rx);
         // The same masses shared by a run of SHARE consecutive records (neighbouring pixels
-        // of a row): every record of the run draws by its first record's.
+        // of a 4×4 tile): every record of the run draws by its first record's.
         let first = k - k % share;
         let shared = masses(&Receiver::along_segment(&ts.scene, &segs[first]));
         let mut shared_k = 0.0f64;

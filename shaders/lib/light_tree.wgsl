@@ -515,16 +515,16 @@ fn flat_sums(tree: vec2<u32>, rx: Receiver, r: f32) -> vec2<f32> {
     return vec2<f32>(sum_i, sum_w);
 }
 
-// `LightTree::sample_flat_k`'s stratified number of slot `slot`.
 // `light_tree::FLAT_GROUP`: consecutive records that share one flat draw's masses.
 const FLAT_GROUP: u32 = 16u;
 
-// `light_tree::flat_group_first` for this dispatch's record `i`, in this dispatch's numbering
-// (a dispatch starts at a multiple of 16 records, so the group's first is in it).
+// The first record of record `i`'s group (`LightTree::group_masses` on the CPU), in this
+// dispatch's numbering (a dispatch starts at a multiple of 16 records, so it is in it).
 fn flat_group_first(i: u32) -> u32 {
     return i - (params.record_offset + i) % FLAT_GROUP;
 }
 
+// `LightTree::sample_flat_k`'s stratified number of slot `slot`.
 fn flat_threshold(slot: u32, xi: f32) -> f32 {
     return min((f32(slot) + xi) / f32(params.light_samples), ONE_BELOW);
 }

@@ -155,7 +155,8 @@ pub enum Draw<'a> {
 }
 
 /// Consecutive gather records that share one flat draw: the masses of each group of this
-/// many are those of its first record's receiver ([`flat_group_first`]). Camera records are
+/// many are those of its first record's receiver ([`LightTree::group_masses`]; the GPU's
+/// `flat_group_first` in `shaders/lib/light_tree.wgsl` finds that record). Camera records are
 /// traced in 4×4 tiles of pixels, so a group is about one tile's camera segments, which see
 /// the VBLs alike. The masses only steer the draw: any positive probability where a light
 /// can contribute keeps the estimate unbiased, and a leaf's mass is never below its share of
@@ -164,12 +165,6 @@ pub enum Draw<'a> {
 /// by 16 consecutive records of a row, before the tiles), against 55.9 descending; an
 /// importance per light per 16 records instead of per record.
 pub const FLAT_GROUP: usize = 16;
-
-/// The first record of record `i`'s flat-draw group ([`FLAT_GROUP`]); the GPU's
-/// `flat_group_first` in `shaders/lib/light_tree.wgsl` is its twin.
-pub fn flat_group_first(i: usize) -> usize {
-    i - i % FLAT_GROUP
-}
 
 /// The largest f32 below 1: a stratified number (k + ξ)/K never reaches 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
