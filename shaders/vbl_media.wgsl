@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/angular.wgsl
 //! use lib/media_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lmm with virtual beam lights: every VRL, its points inflated to radius R, against one
@@ -69,27 +70,8 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     let line = line_angles(oc, dc, 0.0, seg.length, y, r);
     let lobe = sharper(phase_y, phase_x);
     let u_angle = next_1d(s);
-    let k = vertex_count(line.theta1 - line.theta0, lobe.scale);
-    var values: array<f32, 64>;
-    for (var i = 0u; i < k; i++) {
-        let x = oc + dc * vertex_t(line, i, k, 0.0, seg.length);
-        var value = 0.0;
-        if params.angular_pdf == ANGULAR_PDF_VRL {
-            let w = normalize_or_zero(y - x);
-            value = lobe_eval(phase_x, w).x * lobe_eval(phase_y, w).x;
-        } else {
-            let cone = vsl_cone(x, y, r2, -dc);
-            if cone.valid {
-                var w = cone.axis;
-                if peak.w != 0.0 {
-                    w = closest_in_cone(cone, peak.xyz);
-                }
-                value = lobe_eval(phase_x, w).x * lobe_eval(phase_y, w).x;
-            }
-        }
-        values[i] = value;
-    }
-    let stage2 = sample_angular(line, &values, k, 0.0, seg.length, u_angle);
+    let integrand = AngularIntegrand(oc, dc, y, r2, peak, phase_x, phase_y);
+    let stage2 = sample_angular(line, integrand, 0.0, seg.length, lobe.scale, u_angle);
     let t = stage2.x;
     let pdf_t = stage2.y;
     let rnd = cone_random(s);
@@ -113,6 +95,36 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     let col = with_end_wall(Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0)), seg);
     let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, col, rnd);
     return seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t);
+}
+
+// The hooks of lib/angular.wgsl: the camera point's angular density about the VSL centre y.
+struct AngularIntegrand {
+    oc: vec3<f32>,
+    dc: vec3<f32>,
+    y: vec3<f32>,
+    r2: f32,
+    peak: vec4<f32>,
+    phase_x: Lobe,
+    phase_y: Lobe,
+}
+
+// Both phase functions at the camera point o_c + t·d_c, in the direction towards y (the VRL
+// paper's vertex rule) or the one in the VSL's cone closest to ω'_max.
+fn angular_value(f: AngularIntegrand, t: f32) -> f32 {
+    let x = f.oc + f.dc * t;
+    if params.angular_pdf == ANGULAR_PDF_VRL {
+        let w = normalize_or_zero(f.y - x);
+        return lobe_eval(f.phase_x, w).x * lobe_eval(f.phase_y, w).x;
+    }
+    let cone = vsl_cone(x, f.y, f.r2, -f.dc);
+    if !cone.valid {
+        return 0.0;
+    }
+    var w = cone.axis;
+    if f.peak.w != 0.0 {
+        w = closest_in_cone(cone, f.peak.xyz);
+    }
+    return lobe_eval(f.phase_x, w).x * lobe_eval(f.phase_y, w).x;
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl

@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/angular.wgsl
 //! use lib/surface_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lsm with virtual beam lights: every VRL, its points inflated to radius R, against one
@@ -21,24 +22,7 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     let line = line_angles(ov, dv, 0.0, len, p, sqrt(r2));
     let lobe = sharper(rx, phase);
     let u_angle = next_1d(s);
-    let k = vertex_count(line.theta1 - line.theta0, lobe.scale);
-    var values: array<f32, 64>;
-    for (var i = 0u; i < k; i++) {
-        let y = ov + dv * vertex_t(line, i, k, 0.0, len);
-        var value = 0.0;
-        if params.angular_pdf == ANGULAR_PDF_VRL {
-            let w = normalize_or_zero(y - p);
-            value = luminance_mean(lobe_eval(rx, w)) * lobe_eval(phase, w).x;
-        } else {
-            let cone = vsl_cone(p, y, r2, rx.n);
-            if cone.valid {
-                let w = surface_max_dir(rx, cone);
-                value = luminance_mean(lobe_eval(rx, w)) * lobe_eval(phase, w).x;
-            }
-        }
-        values[i] = value;
-    }
-    let sample = sample_angular(line, &values, k, 0.0, len, u_angle);
+    let sample = sample_angular(line, AngularIntegrand(ov, dv, p, r2, rx, phase), 0.0, len, lobe.scale, u_angle);
     let u = sample.x;
     let pdf = sample.y;
     let rnd = cone_random(s);
@@ -62,6 +46,33 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0));
     let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, col, rnd);
     return sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf;
+}
+
+// The hooks of lib/angular.wgsl: the VSL centre's angular density about the shading point p.
+struct AngularIntegrand {
+    ov: vec3<f32>,
+    dv: vec3<f32>,
+    p: vec3<f32>,
+    r2: f32,
+    rx: Lobe,
+    phase: Lobe,
+}
+
+// The receiver's BSDF (mean over colours) times the phase function at the VRL point
+// o_v + u·d_v, in the direction towards it (the VRL paper's vertex rule) or the one in the
+// VSL's cone where the BSDF peaks.
+fn angular_value(f: AngularIntegrand, u: f32) -> f32 {
+    let y = f.ov + f.dv * u;
+    if params.angular_pdf == ANGULAR_PDF_VRL {
+        let w = normalize_or_zero(y - f.p);
+        return luminance_mean(lobe_eval(f.rx, w)) * lobe_eval(f.phase, w).x;
+    }
+    let cone = vsl_cone(f.p, y, f.r2, f.rx.n);
+    if !cone.valid {
+        return 0.0;
+    }
+    let w = surface_max_dir(f.rx, cone);
+    return luminance_mean(lobe_eval(f.rx, w)) * lobe_eval(f.phase, w).x;
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl

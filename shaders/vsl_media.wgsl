@@ -1,4 +1,5 @@
 //! use lib/vbl.wgsl
+//! use lib/angular.wgsl
 //! use lib/media_record.wgsl
 //! use lib/gather_entry.wgsl
 // Lms with virtual spherical lights: every VPL, inflated to radius R, against one camera
@@ -23,24 +24,7 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     let line = line_angles(o, d, 0.0, seg.length, q, sqrt(r2));
     let lobe = sharper(light, phase);
     let u_angle = next_1d(s);
-    let k = vertex_count(line.theta1 - line.theta0, lobe.scale);
-    var values: array<f32, 64>;
-    for (var i = 0u; i < k; i++) {
-        let x = o + d * vertex_t(line, i, k, 0.0, seg.length);
-        var value = 0.0;
-        if params.angular_pdf == ANGULAR_PDF_VRL {
-            let w = normalize_or_zero(q - x);
-            value = luminance_mean(lobe_eval(light, w)) * lobe_eval(phase, w).x;
-        } else {
-            let cone = vsl_cone(x, q, r2, -d);
-            if cone.valid {
-                let w = surface_max_dir(light, cone);
-                value = luminance_mean(lobe_eval(light, w)) * lobe_eval(phase, w).x;
-            }
-        }
-        values[i] = value;
-    }
-    let sample = sample_angular(line, &values, k, 0.0, seg.length, u_angle);
+    let sample = sample_angular(line, AngularIntegrand(o, d, q, r2, light, phase), 0.0, seg.length, lobe.scale, u_angle);
     let t = sample.x;
     let pdf = sample.y;
     let rnd = cone_random(s);
@@ -64,6 +48,33 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, tr, false, vec3<f32>(0.0), vec3<f32>(0.0));
     let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, col, rnd);
     return seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf;
+}
+
+// The hooks of lib/angular.wgsl: the camera point's angular density about the VPL q.
+struct AngularIntegrand {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    q: vec3<f32>,
+    r2: f32,
+    light: Lobe,
+    phase: Lobe,
+}
+
+// The VPL's BSDF (mean over colours) times the phase function at the camera point o + t·d,
+// in the direction towards q (the VRL paper's vertex rule) or the one in the VSL's cone where
+// the BSDF peaks.
+fn angular_value(f: AngularIntegrand, t: f32) -> f32 {
+    let x = f.o + f.d * t;
+    if params.angular_pdf == ANGULAR_PDF_VRL {
+        let w = normalize_or_zero(f.q - x);
+        return luminance_mean(lobe_eval(f.light, w)) * lobe_eval(f.phase, w).x;
+    }
+    let cone = vsl_cone(x, f.q, f.r2, -f.d);
+    if !cone.valid {
+        return 0.0;
+    }
+    let w = surface_max_dir(f.light, cone);
+    return luminance_mean(lobe_eval(f.light, w)) * lobe_eval(f.phase, w).x;
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl

@@ -310,32 +310,6 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col
     return sum * (cone.weight / omega);
 }
 
-// `vbl::vertex_count`: vertices for an angle range `extent` of an integrand varying on the
-// angular scale `scale`.
-fn vertex_count(extent: f32, scale: f32) -> u32 {
-    let most = clamp(params.pdf_vertices, 2u, PL_MAX_VERTICES);
-    let wanted = ceil(4.0 * abs(extent) / scale) + 1.0;
-    if wanted < f32(most) {
-        return max(u32(wanted), 2u);
-    }
-    return most;
-}
-
-// The line parameter of vertex i of k (`vbl::vertex_angle`), clamped to [t0, t1].
-fn vertex_t(l: LineAngles, i: u32, k: u32, t0: f32, t1: f32) -> f32 {
-    let f = f32(i) / f32(k - 1u);
-    return clamp(line_t(l, l.theta0 + (l.theta1 - l.theta0) * f), t0, t1);
-}
-
-// The rest of `vbl::sample_angular` once the k vertex values are in `values`: (t, pdf in t),
-// pdf 0 when there is nothing to sample.
-fn sample_angular(l: LineAngles, values: ptr<function, array<f32, 64>>, k: u32, t0: f32, t1: f32, u: f32) -> vec2<f32> {
-    let sample = piecewise_linear_sample(values, k, l.theta0, l.theta1, params.uniform_share, u);
-    let t = clamp(line_t(l, sample.x), t0, t1);
-    let pdf = sample.y * line_dtheta_dt(l, t);
-    return vec2<f32>(t, select(0.0, pdf, finite_f32(pdf) && pdf > 0.0));
-}
-
 // A shadow ray from `origin` to `target_point` starting in `medium` (`vbl::connect`): 1 when
 // the receiver is at the VSL centre (`dist` = 0).
 fn connect(origin: vec3<f32>, target_point: vec3<f32>, dist: f32, medium: u32, s: ptr<function, Sampler>) -> vec3<f32> {

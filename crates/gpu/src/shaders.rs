@@ -21,6 +21,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("lib/gather.wgsl", include_str!("../../../shaders/lib/gather.wgsl")),
     ("lib/sampling.wgsl", include_str!("../../../shaders/lib/sampling.wgsl")),
     ("lib/vbl.wgsl", include_str!("../../../shaders/lib/vbl.wgsl")),
+    ("lib/angular.wgsl", include_str!("../../../shaders/lib/angular.wgsl")),
     (
         "lib/light_tree.wgsl",
         include_str!("../../../shaders/lib/light_tree.wgsl"),
