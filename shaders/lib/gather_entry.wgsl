@@ -42,12 +42,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let receiver = record_receiver(r);
             let xi = selection_number(GATHER_KIND, i);
             if GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
-                // `Lmm` drawn flat: every leaf weighed at once (`LightTree::sample_flat_k`) for
-                // the receiver of the record's group's first (`FLAT_GROUP`); each drawn
-                // light's pair is estimated as the running sum passes its number.
-                let radius = sqrt(max(params.radius2, 0.0));
-                let group = record_receiver(gather_record(flat_group_first(i)));
-                let sums = flat_sums(tree, group, radius);
+                // `Lmm` drawn flat: every leaf weighed at once (`LightTree::sample_flat_k`) by
+                // the importances `flat_importances` put in the record's group's row; each
+                // drawn light's pair is estimated as the running sum passes its number.
+                let row = flat_group(i);
+                let sums = flat_sums(tree, row);
                 if sums.y > 0.0 {
                     var slot = 0u;
                     var running = 0.0;
@@ -57,7 +56,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                         if (node.child & LIGHT_LEAF) == 0u {
                             continue;
                         }
-                        let pick = Pick(node.child & LIGHT_MASK, flat_mass(flat_importance(node, group, radius), node.weight, sums.x, sums.y), true);
+                        let importance = flat_table[row * tree.y + n];
+                        let pick = Pick(node.child & LIGHT_MASK, flat_mass(importance, node.weight, sums.x, sums.y), true);
                         running += pick.pmf;
                         if pick.pmf > 0.0 {
                             last = pick;
@@ -86,4 +86,28 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let total = admit(injected(sum * params.scale, i), &discarded);
     gathered[i] = vec4<f32>(total, f32(discarded));
+}
+
+// The flat draw's importance table (`flat_table`, `LightTree::group_masses` on the CPU), run
+// before `main` on the same records when `Lmm` is drawn flat: one invocation per (group of
+// `FLAT_GROUP` records, node of the tree), the importance of the node (0 for an inner one)
+// for the receiver of the group's first record.
+@compute @workgroup_size(64)
+fn flat_importances(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let at = record_index(gid);
+    // Every record of a kernel draws from the same tree; the first one names it.
+    let tree = light_tree_of(gather_record(0u));
+    let groups = (params.records + FLAT_GROUP - 1u) / FLAT_GROUP;
+    if tree.y == 0u || at >= groups * tree.y {
+        return;
+    }
+    let row = at / tree.y;
+    let n = at % tree.y;
+    let node = light_tree[tree.x + n];
+    var importance = 0.0;
+    if (node.child & LIGHT_LEAF) != 0u {
+        let rx = record_receiver(gather_record(row * FLAT_GROUP));
+        importance = flat_importance(node, rx, sqrt(max(params.radius2, 0.0)));
+    }
+    flat_table[at] = importance;
 }

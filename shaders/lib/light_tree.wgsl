@@ -25,6 +25,11 @@ const LIGHT_MASK: u32 = 0x0fffffffu;
 const ONE_BELOW: f32 = 0.99999994;
 
 @group(1) @binding(8) var<storage, read> light_tree: array<LightTreeNode>;
+// The flat draw's importance table (`flat_importances` in lib/gather_entry.wgsl): row g holds
+// `flat_importance` of every node of the record's tree (0 for inner nodes) for the receiver
+// of the dispatch's g-th group of `FLAT_GROUP` records, so a group's sixteen invocations
+// share one evaluation of each importance.
+@group(1) @binding(9) var<storage, read_write> flat_table: array<f32>;
 
 // `light_tree::Receiver`: a shading point (a = p, b = n, and its `Gloss`) or a media segment
 // (a = o, b = d).
@@ -501,14 +506,14 @@ fn flat_mass(importance: f32, weight: f32, sum_i: f32, sum_w: f32) -> f32 {
 }
 
 // `LightTree::flat_masses`' sums over the leaves of the tree at `tree.x` (`tree.y` nodes), in
-// node order: (importance, weight).
-fn flat_sums(tree: vec2<u32>, rx: Receiver, r: f32) -> vec2<f32> {
+// node order, the importances from `flat_table` row `row`: (importance, weight).
+fn flat_sums(tree: vec2<u32>, row: u32) -> vec2<f32> {
     var sum_i = 0.0;
     var sum_w = 0.0;
     for (var n = 0u; n < tree.y; n++) {
         let node = light_tree[tree.x + n];
         if (node.child & LIGHT_LEAF) != 0u {
-            sum_i += flat_importance(node, rx, r);
+            sum_i += flat_table[row * tree.y + n];
             sum_w += node.weight;
         }
     }
@@ -518,10 +523,10 @@ fn flat_sums(tree: vec2<u32>, rx: Receiver, r: f32) -> vec2<f32> {
 // `light_tree::FLAT_GROUP`: consecutive records that share one flat draw's masses.
 const FLAT_GROUP: u32 = 16u;
 
-// The first record of record `i`'s group (`LightTree::group_masses` on the CPU), in this
-// dispatch's numbering (a dispatch starts at a multiple of 16 records, so it is in it).
-fn flat_group_first(i: u32) -> u32 {
-    return i - (params.record_offset + i) % FLAT_GROUP;
+// The group of record `i` (`LightTree::group_masses` on the CPU), in this dispatch's
+// numbering: a dispatch starts at a multiple of 16 records, so its groups are whole.
+fn flat_group(i: u32) -> u32 {
+    return i / FLAT_GROUP;
 }
 
 // `LightTree::sample_flat_k`'s stratified number of slot `slot`.

@@ -11,7 +11,7 @@ use beamlight_scene::{Rgb, Scene, bsdf};
 pub use beamlight_trace::gather::GatherInputs;
 use beamlight_trace::{
     camera_paths::{MediaSegment, ShadingPoint},
-    light_tree::{Drawing, LightTreeNode},
+    light_tree::{Drawing, FLAT_GROUP, LightTreeNode},
     vbl::AngularPdf,
 };
 use glam::Vec2;
@@ -168,6 +168,9 @@ pub struct Gathers {
     /// Indexed by [`GatherKernel`]; `None` for kernels not compiled (not asked for, or not
     /// written yet).
     kernels: Vec<Option<Kernel>>,
+    /// `Lmm`'s flat-draw importance table (`flat_importances` in `lib/gather_entry.wgsl`, of
+    /// the `vbl_media` kernel), compiled with it.
+    flat_importances: Option<Kernel>,
     /// At most this many gather records per dispatch (beyond what the binding limit allows).
     chunk_limit: usize,
 }
@@ -178,7 +181,7 @@ pub struct Gathers {
 const PAIRS_PER_DISPATCH: usize = 1 << 16;
 
 /// The slots of bind group 1 (see `lib/gather.wgsl`).
-const GATHER_SLOTS: [Slot; 9] = [
+const GATHER_SLOTS: [Slot; 10] = [
     Slot::Uniform,
     Slot::Read,
     Slot::Read,
@@ -187,8 +190,9 @@ const GATHER_SLOTS: [Slot; 9] = [
     Slot::Read,
     Slot::Read,
     Slot::ReadWrite,
-    // The light trees (`lib/light_tree.wgsl`).
+    // The light trees and the flat draw's importance table (`lib/light_tree.wgsl`).
     Slot::Read,
+    Slot::ReadWrite,
 ];
 
 impl Gathers {
@@ -198,17 +202,24 @@ impl Gathers {
     /// A render compiles its method's four kernels, not all eight.
     pub fn new(gpu: &Gpu, scene: &GpuScene, only: &[GatherKernel]) -> Result<Gathers, GpuError> {
         let layout = compute::bind_group_layout(gpu, "gather", &GATHER_SLOTS);
-        let compile = |k: GatherKernel| Kernel::new(gpu, k.file(), vec![scene.layout.clone(), layout.clone()]);
+        let layouts = vec![scene.layout.clone(), layout.clone()];
+        let compile = |k: GatherKernel| Kernel::new(gpu, k.file(), layouts.clone());
         let wanted: Vec<GatherKernel> = GatherKernel::ALL
             .into_iter()
             .filter(|k| only.contains(k) && k.available())
             .collect();
-        let compiled: Vec<(GatherKernel, Result<Kernel, GpuError>)> = std::thread::scope(|scope| {
+        let table = wanted.contains(&GatherKernel::VblMedia);
+        let (compiled, flat_importances) = std::thread::scope(|scope| {
             let handles: Vec<_> = wanted.iter().map(|&k| (k, scope.spawn(move || compile(k)))).collect();
-            handles
-                .into_iter()
-                .map(|(k, h)| (k, h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))))
-                .collect()
+            let table = table.then(|| {
+                let file = GatherKernel::VblMedia.file();
+                scope.spawn(|| Kernel::with_entry(gpu, file, "flat_importances", layouts.clone()))
+            });
+            let join =
+                |h: std::thread::ScopedJoinHandle<'_, _>| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+            let compiled: Vec<(GatherKernel, Result<Kernel, GpuError>)> =
+                handles.into_iter().map(|(k, h)| (k, join(h))).collect();
+            (compiled, table.map(join))
         });
         let mut kernels: Vec<Option<Kernel>> = (0..KERNELS).map(|_| None).collect();
         for (k, kernel) in compiled {
@@ -216,6 +227,7 @@ impl Gathers {
         }
         Ok(Gathers {
             kernels,
+            flat_importances: flat_importances.transpose()?,
             chunk_limit: usize::MAX,
         })
     }
@@ -237,7 +249,7 @@ impl Gathers {
     /// A multiple of 16 is also a multiple of the flat draw's group
     /// ([`beamlight_trace::light_tree::FLAT_GROUP`]), so a group never spans two dispatches.
     fn records_per_dispatch(&self, gpu: &Gpu, pairs_per_record: usize) -> usize {
-        const { assert!(16 % beamlight_trace::light_tree::FLAT_GROUP == 0) };
+        const { assert!(16 % FLAT_GROUP == 0) };
         let fits = compute::max_binding(gpu) as usize / size_of::<ShadingPoint>();
         let work = PAIRS_PER_DISPATCH / pairs_per_record.max(1);
         (fits.min(work) / 16 * 16).clamp(16, self.chunk_limit)
@@ -332,15 +344,23 @@ impl Gathers {
             };
             let drawn = samples > 0 && GatherKernel::BEAMS.contains(&k);
             // Work per record in pairs: its drawn ones, or every light's; a flat draw (`Lmm`)
-            // also weighs every VBL twice (the sums, then the picks), an importance about an
-            // eighth of a pair (0.4 µs against 2–4 µs on the CPU).
-            let flat = k == GatherKernel::VblMedia && inputs.media_drawing == Drawing::Flat;
+            // also reads its group's row of importances twice (the sums, then the picks), each
+            // importance weighed once per group by `flat_importances` (an importance is about
+            // an eighth of a pair: 0.4 µs against 2–4 µs on the CPU).
+            let flat = drawn && k == GatherKernel::VblMedia && inputs.media_drawing == Drawing::Flat;
             let work = match (drawn, flat) {
-                (true, true) => samples as usize + lights.div_ceil(4),
+                (true, true) => samples as usize + lights.div_ceil(16),
                 (true, false) => samples as usize,
                 (false, _) => lights,
             };
             let chunk = self.records_per_dispatch(gpu, work);
+            // The importance table: a row per group of a dispatch, a column per tree node.
+            let table_kernel = match flat {
+                true => Some(self.flat_importances.as_ref().expect("compiled with vbl_media")),
+                false => None,
+            };
+            let table_entries = chunk.div_ceil(FLAT_GROUP) * inputs.vbl_tree.len();
+            let table = compute::output_unbound::<f32>(gpu, "flat importances", if flat { table_entries } else { 1 })?;
             let out = compute::output_unbound::<[f32; 4]>(gpu, "gathered", records)?;
             let kernel = self.kernels[k as usize].as_ref().expect("wanted kernels exist");
             // All of one kernel's dispatches go into one timed compute pass.
@@ -352,8 +372,7 @@ impl Gathers {
             pass.set_bind_group(0, &scene.bind_group, &[]);
             for first in (0..records).step_by(chunk) {
                 let n = chunk.min(records - first);
-                let (x, y, row) = compute::dispatch_size(gpu, n as u32);
-                let params = GatherParams {
+                let params = |row: u32| GatherParams {
                     pair_seed: inputs.pair_seed,
                     pass_index: inputs.pass,
                     records: n as u32,
@@ -376,7 +395,6 @@ impl Gathers {
                     poison: if inputs.inject_nan { f32::NAN.to_bits() } else { 0 },
                     media_drawing: (inputs.media_drawing == Drawing::Flat) as u32,
                 };
-                let params = compute::uniform(gpu, "gather params", &params);
                 // This chunk's records; of the other kind's array (unused) just its start.
                 fn chunk_of(
                     buffer: &wgpu::Buffer,
@@ -392,23 +410,39 @@ impl Gathers {
                     }
                 }
                 let on_surfaces = k.on_surfaces();
-                let group = compute::bind_group_ranges(
-                    gpu,
-                    kernel.name,
-                    &kernel.layouts[1],
-                    &[
-                        compute::Binding::Whole(&params),
-                        chunk_of(&points, first, n, size_of::<ShadingPoint>(), on_surfaces),
-                        chunk_of(&point_bsdfs, first, n, size_of::<layout::Bsdf>(), on_surfaces),
-                        chunk_of(&segments, first, n, size_of::<MediaSegment>(), !on_surfaces),
-                        compute::Binding::Whole(&vpls),
-                        compute::Binding::Whole(&vpl_bsdfs),
-                        compute::Binding::Whole(&vrls),
-                        chunk_of(&out, first, n, 16, true),
-                        compute::Binding::Whole(&trees),
-                    ],
-                );
-                pass.set_bind_group(1, &group, &[]);
+                let bind = |params: &wgpu::Buffer| {
+                    compute::bind_group_ranges(
+                        gpu,
+                        kernel.name,
+                        &kernel.layouts[1],
+                        &[
+                            compute::Binding::Whole(params),
+                            chunk_of(&points, first, n, size_of::<ShadingPoint>(), on_surfaces),
+                            chunk_of(&point_bsdfs, first, n, size_of::<layout::Bsdf>(), on_surfaces),
+                            chunk_of(&segments, first, n, size_of::<MediaSegment>(), !on_surfaces),
+                            compute::Binding::Whole(&vpls),
+                            compute::Binding::Whole(&vpl_bsdfs),
+                            compute::Binding::Whole(&vrls),
+                            chunk_of(&out, first, n, 16, true),
+                            compute::Binding::Whole(&trees),
+                            compute::Binding::Whole(&table),
+                        ],
+                    )
+                };
+                if let Some(table_kernel) = table_kernel {
+                    // The chunk's importance rows first; a dispatch sees the previous one's
+                    // writes (WebGPU orders the dispatches of a pass).
+                    let entries = n.div_ceil(FLAT_GROUP) * inputs.vbl_tree.len();
+                    let (x, y, row) = compute::dispatch_size(gpu, entries as u32);
+                    let params = compute::uniform(gpu, "flat importance params", &params(row));
+                    pass.set_pipeline(&table_kernel.pipeline);
+                    pass.set_bind_group(1, &bind(&params), &[]);
+                    pass.dispatch_workgroups(x, y, 1);
+                    pass.set_pipeline(&kernel.pipeline);
+                }
+                let (x, y, row) = compute::dispatch_size(gpu, n as u32);
+                let params = compute::uniform(gpu, "gather params", &params(row));
+                pass.set_bind_group(1, &bind(&params), &[]);
                 pass.dispatch_workgroups(x, y, 1);
             }
             drop(pass);
