@@ -43,34 +43,41 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let xi = selection_number(GATHER_KIND, i);
             if GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
                 // `Lmm` drawn flat: every leaf weighed at once (`LightTree::sample_flat_k`) by
-                // the importances `flat_importances` put in the record's group's row; each
-                // drawn light's pair is estimated as the running sum passes its number.
+                // the importances `flat_importances` put in the record's group's row. Slot k's
+                // light is the first leaf at which the running sum of masses passes its
+                // stratified number; the numbers grow with k, so one walk over the leaves
+                // serves every slot. The pairs are estimated outside the walk, so that the
+                // invocations of a SIMD group estimate theirs together, slot by slot.
                 let row = flat_group(i);
                 let sums = flat_sums(tree, row);
                 if sums.y > 0.0 {
-                    var slot = 0u;
+                    var n = 0u;
                     var running = 0.0;
+                    var current = Pick(0u, 0.0, false);
                     var last = Pick(0u, 0.0, false);
-                    for (var n = 0u; n < tree.y; n++) {
-                        let node = light_tree[tree.x + n];
-                        if (node.child & LIGHT_LEAF) == 0u {
-                            continue;
+                    for (var slot = 0u; slot < params.light_samples; slot++) {
+                        let threshold = flat_threshold(slot, xi);
+                        while !(threshold < running) && n < tree.y {
+                            let node = light_tree[tree.x + n];
+                            n++;
+                            if (node.child & LIGHT_LEAF) == 0u {
+                                continue;
+                            }
+                            let importance = flat_table[row * tree.y + n - 1u];
+                            current = Pick(node.child & LIGHT_MASK, flat_mass(importance, node.weight, sums.x, sums.y), true);
+                            running += current.pmf;
+                            if current.pmf > 0.0 {
+                                last = current;
+                            }
                         }
-                        let importance = flat_table[row * tree.y + n];
-                        let pick = Pick(node.child & LIGHT_MASK, flat_mass(importance, node.weight, sums.x, sums.y), true);
-                        running += pick.pmf;
-                        if pick.pmf > 0.0 {
-                            last = pick;
+                        // A number beyond the whole sum, by rounding: the last leaf with a mass.
+                        var pick = current;
+                        if !(threshold < running) {
+                            pick = last;
                         }
-                        while slot < params.light_samples && flat_threshold(slot, xi) < running {
+                        if pick.found {
                             sum += drawn_term(r, i, slot, pick, &discarded);
-                            slot++;
                         }
-                    }
-                    // A number beyond the whole sum, by rounding: the last leaf with a mass.
-                    while slot < params.light_samples && last.found {
-                        sum += drawn_term(r, i, slot, last, &discarded);
-                        slot++;
                     }
                 }
             } else {
