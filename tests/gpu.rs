@@ -318,6 +318,13 @@ fn compare_gathers_chunked(
                light_samples: u32,
                media_light_samples: u32,
                media_drawing: Drawing| {
+        // A flat draw's masses, weighed on the CPU as the renderer does.
+        let masses = match media_drawing {
+            Drawing::Flat => vbl_tree.group_masses(gather.media_segments.len(), radius2.max(0.0).sqrt(), |i| {
+                Receiver::along_segment(&ts.scene, &gather.media_segments[i])
+            }),
+            Drawing::Descent => Vec::new(),
+        };
         let inputs = GatherInputs {
             shading_points: &gather.shading_points,
             media_segments: &gather.media_segments,
@@ -332,6 +339,7 @@ fn compare_gathers_chunked(
             light_samples,
             media_light_samples,
             media_drawing,
+            media_masses: &masses,
             vsl_tree: if light_samples > 0 { &vsl_tree.nodes } else { &[] },
             vbl_tree: if light_samples > 0 { &vbl_tree.nodes } else { &[] },
             inject_nan: false,
@@ -528,13 +536,13 @@ fn compare_gathers_chunked(
 
 /// Per record, [`LightTree::estimate`] with the record's selection streams for kernel `kind`
 /// of `f(record index, record, slot, light index)`, over `m` light paths.
-fn per_drawn<R>(
+fn per_drawn<R: Sync>(
     records: &[R],
     tree: &LightTree,
     r: f32,
     samples: u32,
     m: f32,
-    receiver: impl Fn(&R) -> Receiver,
+    receiver: impl Fn(&R) -> Receiver + Sync,
     (kind, drawing): (GatherKind, Drawing),
     (pair_seed, pass): (u32, u32),
     f: impl Fn(usize, &R, u32, usize) -> Rgb,
@@ -584,6 +592,7 @@ fn a_kernel_not_compiled_is_an_error() {
         light_samples: 0,
         media_light_samples: 0,
         media_drawing: Drawing::Descent,
+        media_masses: &[],
         vsl_tree: &[],
         vbl_tree: &[],
         inject_nan: false,

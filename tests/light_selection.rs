@@ -59,12 +59,12 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
 
     // One component: f(record, light, stream) over the records of `records`, gathered from
     // the lights of `tree` (all of them, or k drawn ones).
-    fn compare<R>(
+    fn compare<R: Sync>(
         what: &str,
         records: &[R],
         n_lights: usize,
         tree: &LightTree,
-        receiver: impl Fn(&R) -> Receiver,
+        receiver: impl Fn(&R) -> Receiver + Sync,
         (kind, drawing): (GatherKind, Drawing),
         r: f32,
         k: u32,

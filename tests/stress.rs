@@ -417,6 +417,7 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             light_samples: 0,
             media_light_samples: 0,
             media_drawing: Drawing::Descent,
+            media_masses: &[],
             vsl_tree: &[],
             vbl_tree: &[],
             inject_nan: false,

@@ -42,42 +42,41 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let receiver = record_receiver(r);
             let xi = selection_number(GATHER_KIND, i);
             if GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
-                // `Lmm` drawn flat: every leaf weighed at once (`LightTree::sample_flat_k`) by
-                // the importances `flat_importances` put in the record's group's row. Slot k's
-                // light is the first leaf at which the running sum of masses passes its
-                // stratified number; the numbers grow with k, so one walk over the leaves
-                // serves every slot. The pairs are estimated outside the walk, so that the
-                // invocations of a SIMD group estimate theirs together, slot by slot.
-                let row = flat_group(i);
-                let sums = flat_sums(tree, row);
-                if sums.y > 0.0 {
-                    var n = 0u;
-                    var running = 0.0;
-                    var current = Pick(0u, 0.0, false);
-                    var last = Pick(0u, 0.0, false);
-                    for (var slot = 0u; slot < params.light_samples; slot++) {
-                        let threshold = flat_threshold(slot, xi);
-                        while !(threshold < running) && n < tree.y {
-                            let node = light_tree[tree.x + n];
-                            n++;
-                            if (node.child & LIGHT_LEAF) == 0u {
-                                continue;
-                            }
-                            let importance = flat_table[row * tree.y + n - 1u];
-                            current = Pick(node.child & LIGHT_MASK, flat_mass(importance, node.weight, sums.x, sums.y), true);
-                            running += current.pmf;
-                            if current.pmf > 0.0 {
-                                last = current;
-                            }
+                // `Lmm` drawn flat (`LightTree::sample_flat_k`): by the masses of the record's
+                // group, in node order. Slot k's light is the first leaf at which the running
+                // sum passes its stratified number, compared as slot + ξ < running·K (addition
+                // and multiplication are correctly rounded, so the picks are the CPU's). The
+                // numbers grow with k, so one walk serves every slot; the pairs are estimated
+                // outside it, so that a SIMD group's invocations estimate theirs together.
+                let base = flat_group(i) * flat_stride(tree.y);
+                let k_f = f32(params.light_samples);
+                var n = 0u;
+                var leaf = 0u;
+                var running = 0.0;
+                var current = Pick(0u, 0.0, false);
+                var last = Pick(0u, 0.0, false);
+                for (var slot = 0u; slot < params.light_samples; slot++) {
+                    let number = f32(slot) + xi;
+                    while !(number < running * k_f) && n < tree.y {
+                        let node = light_tree[tree.x + n];
+                        n++;
+                        if (node.child & LIGHT_LEAF) == 0u {
+                            continue;
                         }
-                        // A number beyond the whole sum, by rounding: the last leaf with a mass.
-                        var pick = current;
-                        if !(threshold < running) {
-                            pick = last;
+                        current = Pick(node.child & LIGHT_MASK, flat_masses[base + leaf], true);
+                        leaf++;
+                        running += current.pmf;
+                        if current.pmf > 0.0 {
+                            last = current;
                         }
-                        if pick.found {
-                            sum += drawn_term(r, i, slot, pick, &discarded);
-                        }
+                    }
+                    // A number beyond the whole sum, by rounding: the last leaf with a mass.
+                    var pick = current;
+                    if !(number < running * k_f) {
+                        pick = last;
+                    }
+                    if pick.found {
+                        sum += drawn_term(r, i, slot, pick, &discarded);
                     }
                 }
             } else {
@@ -95,26 +94,3 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     gathered[i] = vec4<f32>(total, f32(discarded));
 }
 
-// The flat draw's importance table (`flat_table`, `LightTree::group_masses` on the CPU), run
-// before `main` on the same records when `Lmm` is drawn flat: one invocation per (group of
-// `FLAT_GROUP` records, node of the tree), the importance of the node (0 for an inner one)
-// for the receiver of the group's first record.
-@compute @workgroup_size(64)
-fn flat_importances(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let at = record_index(gid);
-    // Every record of a kernel draws from the same tree; the first one names it.
-    let tree = light_tree_of(gather_record(0u));
-    let groups = (params.records + FLAT_GROUP - 1u) / FLAT_GROUP;
-    if tree.y == 0u || at >= groups * tree.y {
-        return;
-    }
-    let row = at / tree.y;
-    let n = at % tree.y;
-    let node = light_tree[tree.x + n];
-    var importance = 0.0;
-    if (node.child & LIGHT_LEAF) != 0u {
-        let rx = record_receiver(gather_record(row * FLAT_GROUP));
-        importance = flat_importance(node, rx, sqrt(max(params.radius2, 0.0)));
-    }
-    flat_table[at] = importance;
-}

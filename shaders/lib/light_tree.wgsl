@@ -25,11 +25,10 @@ const LIGHT_MASK: u32 = 0x0fffffffu;
 const ONE_BELOW: f32 = 0.99999994;
 
 @group(1) @binding(8) var<storage, read> light_tree: array<LightTreeNode>;
-// The flat draw's importance table (`flat_importances` in lib/gather_entry.wgsl): row g holds
-// `flat_importance` of every node of the record's tree (0 for inner nodes) for the receiver
-// of the dispatch's g-th group of `FLAT_GROUP` records, so a group's sixteen invocations
-// share one evaluation of each importance.
-@group(1) @binding(9) var<storage, read_write> flat_table: array<f32>;
+// The flat draw's masses (`LightTree::group_masses`, weighed on the CPU: `flat_masses` in
+// crates/gpu/src/gather.rs): row g the pmfs of the leaves, in node order, for the dispatch's
+// g-th group of `FLAT_GROUP` records, each row `flat_stride(tree)` long.
+@group(1) @binding(9) var<storage, read> flat_masses: array<f32>;
 
 // `light_tree::Receiver`: a shading point (a = p, b = n, and its `Gloss`) or a media segment
 // (a = o, b = d).
@@ -179,112 +178,6 @@ fn exp_asinh_m1(x: f32) -> f32 {
     return x + x * x / (1.0 + sqrt(1.0 + x * x));
 }
 
-// `Phases::off_line`: y's foot on the camera line (t_c), its distance floored at r, and the
-// unit direction from y towards the line.
-struct OffLine {
-    tc: f32,
-    h: f32,
-    n: vec3<f32>,
-}
-
-fn phases_off_line(rx: Receiver, dir: vec3<f32>, r: f32, y: vec3<f32>) -> OffLine {
-    let d = rx.b;
-    let v = y - rx.a;
-    let tc = dot_glam(v, d);
-    let perp = v - d * tc;
-    let dist = sqrt(dot_glam(perp, perp));
-    var n: vec3<f32>;
-    if dist > 0.0 {
-        n = -perp / dist;
-    } else {
-        let q = dir - d * dot_glam(dir, d);
-        if dot_glam(q, q) > 1e-12 {
-            n = q * (1.0 / sqrt(dot_glam(q, q)));
-        } else {
-            var other = vec3<f32>(0.0, 1.0, 0.0);
-            if abs(d.x) < 0.9 {
-                other = vec3<f32>(1.0, 0.0, 0.0);
-            }
-            let c = vec3<f32>(d.y * other.z - other.y * d.z, d.z * other.x - other.z * d.x, d.x * other.y - other.x * d.y);
-            n = c * (1.0 / sqrt(dot_glam(c, c)));
-        }
-    }
-    return OffLine(tc, max(dist, r), n);
-}
-
-// `Phases::seen_from`'s unit vector, and its bisection at a level whose factor is k.
-fn unit2(c: f32, s: f32) -> vec2<f32> {
-    let k = 1.0 / sqrt(c * c + s * s);
-    return vec2<f32>(c * k, s * k);
-}
-
-fn bisection_level(p: vec2<f32>, q: vec2<f32>) -> f32 {
-    let x = p.x + q.x;
-    let y = p.y + q.y;
-    return 1.0 / sqrt(x * x + y * y);
-}
-
-fn mid2(p: vec2<f32>, q: vec2<f32>, k: f32) -> vec2<f32> {
-    return vec2<f32>((p.x + q.x) * k, (p.y + q.y) * k);
-}
-
-// `importance::arc_angle`: the angle of (x, y), y ≥ 0, by A&S 4.4.49 with the octants folded.
-fn atan01(t: f32) -> f32 {
-    let t2 = t * t;
-    return t * (0.999866 + t2 * (-0.3302995 + t2 * (0.180141 + t2 * (-0.085133 + t2 * 0.0208351))));
-}
-
-fn arc_angle(y_in: f32, x: f32) -> f32 {
-    let y = max(y_in, 0.0);
-    if y == 0.0 {
-        return select(0.0, 3.1415927, x < 0.0);
-    }
-    if x >= y {
-        return atan01(y / x);
-    }
-    if x >= -y {
-        return FRAC_PI_2 - atan01(x / y);
-    }
-    return 3.1415927 - atan01(y / -x);
-}
-
-// `Phases::seen_from`'s F: both phase functions for the direction (cos φ, sin φ) about n.
-fn phases_f(g_light: f32, g: f32, dir_n: f32, dir_d: f32, cs: vec2<f32>) -> f32 {
-    return phase_ratio(g_light, cs.x * dir_n + cs.y * dir_d) * phase_ratio(g, -cs.y);
-}
-
-// `Phases::seen_from`: ∫ F dt / d² along the camera segment from the light's point y.
-fn phases_seen_from(rx: Receiver, dir: vec3<f32>, g_light: f32, r: f32, y: vec3<f32>) -> f32 {
-    let off = phases_off_line(rx, dir, r, y);
-    let h = off.h;
-    let a = unit2(h, -off.tc);
-    let b = unit2(h, rx.len - off.tc);
-    let angle = arc_angle(a.x * b.y - a.y * b.x, a.x * b.x + a.y * b.y);
-    let dir_n = dot_glam(dir, off.n);
-    let dir_d = dot_glam(dir, rx.b);
-    let k1 = bisection_level(a, b);
-    let m = mid2(a, b, k1);
-    let k2 = bisection_level(a, m);
-    let q1 = mid2(a, m, k2);
-    let q3 = mid2(m, b, k2);
-    let k3 = bisection_level(a, q1);
-    let e1 = mid2(a, q1, k3);
-    let e3 = mid2(q1, m, k3);
-    let e5 = mid2(m, q3, k3);
-    let e7 = mid2(q3, b, k3);
-    let k4 = bisection_level(a, e1);
-    let g = rx.g;
-    let sum = phases_f(g_light, g, dir_n, dir_d, mid2(a, e1, k4))
-        + phases_f(g_light, g, dir_n, dir_d, mid2(e1, q1, k4))
-        + phases_f(g_light, g, dir_n, dir_d, mid2(q1, e3, k4))
-        + phases_f(g_light, g, dir_n, dir_d, mid2(e3, m, k4))
-        + phases_f(g_light, g, dir_n, dir_d, mid2(m, e5, k4))
-        + phases_f(g_light, g, dir_n, dir_d, mid2(e5, q3, k4))
-        + phases_f(g_light, g, dir_n, dir_d, mid2(q3, e7, k4))
-        + phases_f(g_light, g, dir_n, dir_d, mid2(e7, b, k4));
-    return 0.125 * angle * sum / h;
-}
-
 // `importance::Closest`: a segment light seen from the camera line.
 struct Closest {
     l: f32,
@@ -401,44 +294,6 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
     return node.weight * phase * seen.x / seen.y;
 }
 
-// `importance::flat_importance`: a leaf's importance for a flat draw (the pair integral for a
-// VBL leaf and a camera segment, else `light_importance`).
-fn flat_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
-    let r = max(r_in, 1e-12);
-    let is_segment = (node.child & LIGHT_LEAF) != 0u && any(node.lo != node.hi);
-    if !rx.is_segment || !is_segment {
-        return light_importance(node, rx, r);
-    }
-    let a = leaf_segment_start(node);
-    let b = leaf_segment_end(node);
-    let near = closest_on_light(a, b, rx);
-    let l = near.l;
-    let dir = near.dir;
-    let u0 = near.u0;
-    let sin2 = near.sin2;
-    let s = max(sqrt(sin2), 1e-3);
-    let big_h = phases_off_line(rx, dir, r, a + dir * u0).h;
-    let p = exp_asinh_m1((l - u0) * s / big_h);
-    let q = exp_asinh_m1(u0 * s / big_h);
-    let span = log(1.0 + (p + q + p * q));
-    let e = sqrt((1.0 + p) / (1.0 + q));
-    var value = 0.0;
-    for (var k = 0u; k < 2u; k++) {
-        let x = select(FRAC_1_SQRT_3, -FRAC_1_SQRT_3, k == 0u);
-        let ek = e * exp(0.5 * span * x);
-        let u = clamp(u0 + big_h / s * 0.5 * (ek - 1.0 / ek), 0.0, l);
-        let jacobian = 0.5 * span * big_h / s * 0.5 * (ek + 1.0 / ek);
-        value += fade_density(node.sigma_t, l, u) * phases_seen_from(rx, dir, node.g, r, a + dir * u) * jacobian;
-    }
-    if node.sigma_t * l > 1.0 {
-        let first = 1.0 / node.sigma_t;
-        let h_a = phases_off_line(rx, dir, r, a).h;
-        let start = phases_seen_from(rx, dir, node.g, r, a) * asinh_stable(first * s / h_a) / s * h_a;
-        value = max(value, fade_density(node.sigma_t, l, first) * start);
-    }
-    return node.weight * value;
-}
-
 // `light_tree::DEFENSIVE_SHARE`.
 const DEFENSIVE_SHARE: f32 = 0.1;
 
@@ -497,29 +352,6 @@ fn tree_sample_slot(base: u32, rx: Receiver, kind: u32, record: u32, slot: u32, 
     return tree_sample(base, rx, sqrt(max(params.radius2, 0.0)), u, &s);
 }
 
-// `light_tree::flat_mass`: a leaf's probability in a flat draw.
-fn flat_mass(importance: f32, weight: f32, sum_i: f32, sum_w: f32) -> f32 {
-    if sum_i > 0.0 {
-        return (1.0 - DEFENSIVE_SHARE) * (importance / sum_i) + DEFENSIVE_SHARE * (weight / sum_w);
-    }
-    return weight / sum_w;
-}
-
-// `LightTree::flat_masses`' sums over the leaves of the tree at `tree.x` (`tree.y` nodes), in
-// node order, the importances from `flat_table` row `row`: (importance, weight).
-fn flat_sums(tree: vec2<u32>, row: u32) -> vec2<f32> {
-    var sum_i = 0.0;
-    var sum_w = 0.0;
-    for (var n = 0u; n < tree.y; n++) {
-        let node = light_tree[tree.x + n];
-        if (node.child & LIGHT_LEAF) != 0u {
-            sum_i += flat_table[row * tree.y + n];
-            sum_w += node.weight;
-        }
-    }
-    return vec2<f32>(sum_i, sum_w);
-}
-
 // `light_tree::FLAT_GROUP`: consecutive records that share one flat draw's masses.
 const FLAT_GROUP: u32 = 16u;
 
@@ -529,9 +361,10 @@ fn flat_group(i: u32) -> u32 {
     return i / FLAT_GROUP;
 }
 
-// `LightTree::sample_flat_k`'s stratified number of slot `slot`.
-fn flat_threshold(slot: u32, xi: f32) -> f32 {
-    return min((f32(slot) + xi) / f32(params.light_samples), ONE_BELOW);
+// The length of a row of `flat_masses` for a tree of `nodes` nodes: its (nodes + 1) / 2
+// leaves, padded to a multiple of 64 (256 bytes, so that a dispatch binds whole rows).
+fn flat_stride(nodes: u32) -> u32 {
+    return max((nodes + 1u) / 2u + 63u, 64u) / 64u * 64u;
 }
 
 // `streams::selection_sampler`.

@@ -1,7 +1,7 @@
 //! The command line's words: clap types for every command and their parsers.
 use crate::runs;
 use anyhow::Result;
-use beamlight_render::{Drawing, Method, backend::Backend, components::Component, many_lights};
+use beamlight_render::{Method, backend::Backend, components::Component, many_lights, many_lights::MediaDraw};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -102,13 +102,17 @@ impl ValueEnum for MethodArg {
     }
 }
 
-/// `--media-light-draw`: the light tree's [`Drawing`]s.
+/// `--media-light-draw`: the render crate's [`MediaDraw`]s.
 #[derive(Clone, Copy)]
-pub(crate) struct DrawingArg(pub(crate) Drawing);
+pub(crate) struct MediaDrawArg(pub(crate) MediaDraw);
 
-impl ValueEnum for DrawingArg {
+impl ValueEnum for MediaDrawArg {
     fn value_variants<'a>() -> &'a [Self] {
-        &[DrawingArg(Drawing::Descent), DrawingArg(Drawing::Flat)]
+        &[
+            MediaDrawArg(MediaDraw::Auto),
+            MediaDrawArg(MediaDraw::Descent),
+            MediaDrawArg(MediaDraw::Flat),
+        ]
     }
 
     fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
@@ -206,13 +210,14 @@ pub(crate) struct RenderArgs {
     /// the noisiest (see docs/rendering.md)
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub(crate) media_light_samples: Option<u32>,
-    /// `vbl`: how camera media segments draw their virtual beam lights for `Lmm`: `descent`
-    /// down the light tree, or `flat`, weighing every beam of the pass by its pair integral
-    /// with both phase functions for each 4x4 tile of pixels (on the CPU at equal time `Lmm`
-    /// noise 23x lower in the glossy fog box, 2.4x in the smoke box; on lavapipe its kernel
-    /// is 25x dearer; see docs/rendering.md)
-    #[arg(long, value_enum, default_value = "descent")]
-    pub(crate) media_light_draw: DrawingArg,
+    /// `vbl`: how camera media segments draw their virtual beam lights for `Lmm`: `flat`,
+    /// weighing every beam of the pass by its pair integral with both phase functions for
+    /// each 4x4 tile of pixels (at equal time `Lmm` noise 23x lower than the descent in the
+    /// glossy fog box, 2.4x in the smoke box), `descent` down the light tree (cheaper when a
+    /// pass has very many beams), or `auto`: flat up to 4096 beams a pass, the descent beyond
+    /// (see docs/rendering.md)
+    #[arg(long, value_enum, default_value = "auto")]
+    pub(crate) media_light_draw: MediaDrawArg,
     /// Many-light methods: camera samples per pixel per pass for direct light (its own pixel
     /// jitter and next-event estimate each; the gathers use one).
     #[arg(long, default_value_t = many_lights::DEFAULT_DIRECT_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=4096))]

@@ -111,16 +111,6 @@ pub struct Kernel {
 
 impl Kernel {
     pub fn new(gpu: &Gpu, name: &'static str, groups: Vec<wgpu::BindGroupLayout>) -> Result<Kernel, GpuError> {
-        Kernel::with_entry(gpu, name, "main", groups)
-    }
-
-    /// The kernel of `name`'s entry point `entry` (a file may hold more than `main`).
-    pub fn with_entry(
-        gpu: &Gpu,
-        name: &'static str,
-        entry: &str,
-        groups: Vec<wgpu::BindGroupLayout>,
-    ) -> Result<Kernel, GpuError> {
         let source = shaders::compose(name).map_err(|e| GpuError::Shader(e.to_string()))?;
         let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(name),
@@ -136,7 +126,7 @@ impl Kernel {
             label: Some(name),
             layout: Some(&layout),
             module: &module,
-            entry_point: Some(entry),
+            entry_point: Some("main"),
             compilation_options: Default::default(),
             cache: None,
         });

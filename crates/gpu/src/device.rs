@@ -30,6 +30,8 @@ pub enum GpuError {
     },
     #[error("WGSL: {0}")]
     Shader(String),
+    #[error("the gather inputs do not fit together: {0}")]
+    Inputs(String),
     #[error("GPU buffer readback failed: {0}")]
     Readback(String),
     #[error("the GPU reported: {0}")]

@@ -168,9 +168,6 @@ pub struct Gathers {
     /// Indexed by [`GatherKernel`]; `None` for kernels not compiled (not asked for, or not
     /// written yet).
     kernels: Vec<Option<Kernel>>,
-    /// `Lmm`'s flat-draw importance table (`flat_importances` in `lib/gather_entry.wgsl`, of
-    /// the `vbl_media` kernel), compiled with it.
-    flat_importances: Option<Kernel>,
     /// At most this many gather records per dispatch (beyond what the binding limit allows).
     chunk_limit: usize,
 }
@@ -190,9 +187,9 @@ const GATHER_SLOTS: [Slot; 10] = [
     Slot::Read,
     Slot::Read,
     Slot::ReadWrite,
-    // The light trees and the flat draw's importance table (`lib/light_tree.wgsl`).
+    // The light trees and the flat draw's masses (`lib/light_tree.wgsl`).
     Slot::Read,
-    Slot::ReadWrite,
+    Slot::Read,
 ];
 
 impl Gathers {
@@ -202,24 +199,17 @@ impl Gathers {
     /// A render compiles its method's four kernels, not all eight.
     pub fn new(gpu: &Gpu, scene: &GpuScene, only: &[GatherKernel]) -> Result<Gathers, GpuError> {
         let layout = compute::bind_group_layout(gpu, "gather", &GATHER_SLOTS);
-        let layouts = vec![scene.layout.clone(), layout.clone()];
-        let compile = |k: GatherKernel| Kernel::new(gpu, k.file(), layouts.clone());
+        let compile = |k: GatherKernel| Kernel::new(gpu, k.file(), vec![scene.layout.clone(), layout.clone()]);
         let wanted: Vec<GatherKernel> = GatherKernel::ALL
             .into_iter()
             .filter(|k| only.contains(k) && k.available())
             .collect();
-        let table = wanted.contains(&GatherKernel::VblMedia);
-        let (compiled, flat_importances) = std::thread::scope(|scope| {
+        let compiled: Vec<(GatherKernel, Result<Kernel, GpuError>)> = std::thread::scope(|scope| {
             let handles: Vec<_> = wanted.iter().map(|&k| (k, scope.spawn(move || compile(k)))).collect();
-            let table = table.then(|| {
-                let file = GatherKernel::VblMedia.file();
-                scope.spawn(|| Kernel::with_entry(gpu, file, "flat_importances", layouts.clone()))
-            });
-            let join =
-                |h: std::thread::ScopedJoinHandle<'_, _>| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
-            let compiled: Vec<(GatherKernel, Result<Kernel, GpuError>)> =
-                handles.into_iter().map(|(k, h)| (k, join(h))).collect();
-            (compiled, table.map(join))
+            handles
+                .into_iter()
+                .map(|(k, h)| (k, h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))))
+                .collect()
         });
         let mut kernels: Vec<Option<Kernel>> = (0..KERNELS).map(|_| None).collect();
         for (k, kernel) in compiled {
@@ -227,7 +217,6 @@ impl Gathers {
         }
         Ok(Gathers {
             kernels,
-            flat_importances: flat_importances.transpose()?,
             chunk_limit: usize::MAX,
         })
     }
@@ -331,6 +320,8 @@ impl Gathers {
         let trees: Vec<LightTreeNode> = inputs.vsl_tree.iter().chain(inputs.vbl_tree).copied().collect();
         let trees = compute::storage(gpu, "light trees", &trees)?;
 
+        let (masses, stride) = flat_masses(gpu, inputs, wanted(GatherKernel::VblMedia))?;
+
         let mut timer = Timer::new(gpu, KERNELS as u32);
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let mut outputs: Vec<(GatherKernel, wgpu::Buffer, usize)> = Vec::new();
@@ -344,23 +335,14 @@ impl Gathers {
             };
             let drawn = samples > 0 && GatherKernel::BEAMS.contains(&k);
             // Work per record in pairs: its drawn ones, or every light's; a flat draw (`Lmm`)
-            // also reads its group's row of importances twice (the sums, then the picks), each
-            // importance weighed once per group by `flat_importances` (an importance is about
-            // an eighth of a pair: 0.4 µs against 2–4 µs on the CPU).
+            // also walks its group's masses (a read and an add per VBL).
             let flat = drawn && k == GatherKernel::VblMedia && inputs.media_drawing == Drawing::Flat;
             let work = match (drawn, flat) {
-                (true, true) => samples as usize + lights.div_ceil(16),
+                (true, true) => samples as usize + lights.div_ceil(64),
                 (true, false) => samples as usize,
                 (false, _) => lights,
             };
             let chunk = self.records_per_dispatch(gpu, work);
-            // The importance table: a row per group of a dispatch, a column per tree node.
-            let table_kernel = match flat {
-                true => Some(self.flat_importances.as_ref().expect("compiled with vbl_media")),
-                false => None,
-            };
-            let table_entries = chunk.div_ceil(FLAT_GROUP) * inputs.vbl_tree.len();
-            let table = compute::output_unbound::<f32>(gpu, "flat importances", if flat { table_entries } else { 1 })?;
             let out = compute::output_unbound::<[f32; 4]>(gpu, "gathered", records)?;
             let kernel = self.kernels[k as usize].as_ref().expect("wanted kernels exist");
             // All of one kernel's dispatches go into one timed compute pass.
@@ -425,21 +407,17 @@ impl Gathers {
                             compute::Binding::Whole(&vrls),
                             chunk_of(&out, first, n, 16, true),
                             compute::Binding::Whole(&trees),
-                            compute::Binding::Whole(&table),
+                            match flat {
+                                true => {
+                                    let row = (stride * size_of::<f32>()) as u64;
+                                    let groups = n.div_ceil(FLAT_GROUP) as u64;
+                                    compute::Binding::range(&masses, (first / FLAT_GROUP) as u64 * row, groups * row)
+                                }
+                                false => compute::Binding::range(&masses, 0, size_of::<f32>() as u64),
+                            },
                         ],
                     )
                 };
-                if let Some(table_kernel) = table_kernel {
-                    // The chunk's importance rows first; a dispatch sees the previous one's
-                    // writes (WebGPU orders the dispatches of a pass).
-                    let entries = n.div_ceil(FLAT_GROUP) * inputs.vbl_tree.len();
-                    let (x, y, row) = compute::dispatch_size(gpu, entries as u32);
-                    let params = compute::uniform(gpu, "flat importance params", &params(row));
-                    pass.set_pipeline(&table_kernel.pipeline);
-                    pass.set_bind_group(1, &bind(&params), &[]);
-                    pass.dispatch_workgroups(x, y, 1);
-                    pass.set_pipeline(&kernel.pipeline);
-                }
                 let (x, y, row) = compute::dispatch_size(gpu, n as u32);
                 let params = compute::uniform(gpu, "gather params", &params(row));
                 pass.set_bind_group(1, &bind(&params), &[]);
@@ -475,6 +453,37 @@ impl Gathers {
             timer,
         })
     }
+}
+
+/// The masses a flat `Lmm` draw takes its lights by (`flat_masses` in `lib/light_tree.wgsl`):
+/// row g the pmfs of group g's leaves in node order ([`GatherInputs::media_masses`]), each row
+/// padded to a multiple of 64 values (256 bytes, the largest storage-offset alignment), so
+/// that a dispatch of whole groups binds its rows. Returns the buffer and the row's stride;
+/// one zero when nothing draws flat.
+fn flat_masses(gpu: &Gpu, inputs: &GatherInputs, vbl_media: bool) -> Result<(wgpu::Buffer, usize), GpuError> {
+    let drawn = vbl_media && inputs.media_light_samples > 0 && inputs.media_drawing == Drawing::Flat;
+    if !drawn {
+        return Ok((compute::storage_unbound::<f32>(gpu, "flat masses", &[])?, 0));
+    }
+    let leaves = inputs.vbl_tree.iter().filter(|n| n.is_leaf()).count();
+    let groups = inputs.media_segments.len().div_ceil(FLAT_GROUP);
+    if inputs.media_masses.len() != groups || inputs.media_masses.iter().any(|g| !g.is_empty() && g.len() != leaves) {
+        return Err(GpuError::Inputs(format!(
+            "a flat draw over {leaves} VBLs for {groups} groups of media segments has masses for {} groups",
+            inputs.media_masses.len()
+        )));
+    }
+    // The kernel walks this many leaves (its tree's, `(nodes + 1) / 2` of a binary tree).
+    debug_assert_eq!(leaves, inputs.vbl_tree.len().div_ceil(2));
+    let stride = leaves.next_multiple_of(64).max(64);
+    let mut table = vec![0.0f32; groups * stride];
+    for (row, group) in table.chunks_exact_mut(stride).zip(inputs.media_masses) {
+        // An empty group (no VBL with any weight) draws nothing: its row stays zero.
+        for (slot, &(_, pmf)) in row.iter_mut().zip(group) {
+            *slot = pmf;
+        }
+    }
+    Ok((compute::storage_unbound(gpu, "flat masses", &table)?, stride))
 }
 
 /// Gathers submitted to the GPU and not yet read back.

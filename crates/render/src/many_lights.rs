@@ -23,7 +23,7 @@ use beamlight_trace::{
     components::Component,
     direct,
     light_paths::{Keep, LightTracerSettings, trace_light_paths},
-    light_tree::{Drawing, LightTree},
+    light_tree::{Drawing, LightTree, Receiver},
     streams,
     vbl::VblSettings,
 };
@@ -75,9 +75,10 @@ pub struct ManyLightSettings {
     /// (10 s, four seeds each), but in the smoke box, whose heterogeneous medium makes each
     /// pair dearer, 1.2× and 1.6× higher. So the default stays `light_samples`.
     pub media_light_samples: Option<u32>,
-    /// How camera media segments draw their VBLs for `Lmm` (`--media-light-draw`): down the
-    /// tree (the default) or flat by each one's pair integral ([`LightTree::flat_masses`]).
-    pub media_drawing: Drawing,
+    /// How camera media segments draw their VBLs for `Lmm` (`--media-light-draw`): flat by
+    /// each one's pair integral ([`LightTree::flat_masses`]) unless a pass has very many, or
+    /// always one way.
+    pub media_drawing: MediaDraw,
     /// Camera samples per pixel per pass for direct light (`--direct-samples`): the gather's
     /// own and more, each with its own pixel jitter and one next-event estimate (light and
     /// BSDF/phase sampling, MIS) at each of its records. Direct light costs little next to
@@ -105,6 +106,50 @@ pub struct ManyLightSettings {
     /// checkpoint from a poisoned render cannot continue a clean one.
     pub inject_nan: bool,
 }
+
+/// How camera media segments draw their VBLs for `Lmm` (`--media-light-draw`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MediaDraw {
+    /// Flat while a pass has at most [`FLAT_MAX_VBLS`] VBLs, by the descent beyond.
+    #[default]
+    Auto,
+    /// Always down the tree ([`Drawing::Descent`]).
+    Descent,
+    /// Always flat ([`Drawing::Flat`]).
+    Flat,
+}
+
+impl MediaDraw {
+    pub const ALL: [MediaDraw; 3] = [MediaDraw::Auto, MediaDraw::Descent, MediaDraw::Flat];
+
+    /// How a pass with `vbls` VBLs draws them.
+    pub fn drawing(self, vbls: usize) -> Drawing {
+        match self {
+            MediaDraw::Auto if vbls <= FLAT_MAX_VBLS => Drawing::Flat,
+            MediaDraw::Auto | MediaDraw::Descent => Drawing::Descent,
+            MediaDraw::Flat => Drawing::Flat,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            MediaDraw::Auto => "auto",
+            MediaDraw::Descent => "descent",
+            MediaDraw::Flat => "flat",
+        }
+    }
+}
+
+/// The most VBLs a pass draws `Lmm`'s beams from flat by default. A flat draw weighs every
+/// VBL once per group of [`beamlight_trace::light_tree::FLAT_GROUP`] camera segments and
+/// walks them all for each segment, so its cost grows with the pass's VBLs where the
+/// descent's grows with their logarithm. Yet it stays ahead well past the default 64 light
+/// paths a pass: the glossy fog box (about 3.4 VBLs a light path), `vbl --only Lmm`, 96²,
+/// 16 s, the CPU, relMSE between two seeds' renders, flat against descending: 64 paths 9.3e-4
+/// against 2.1e-2; 256 paths 1.8e-3 (70 passes) against 2.4e-2 (150); 1024 paths (about 3 500
+/// VBLs) 5.4e-3 (20 passes) against 5.1e-2 (131). Beyond some 4 000 its cost per pass would
+/// keep growing while the descent's would not, so the default stops there.
+pub const FLAT_MAX_VBLS: usize = 4096;
 
 /// Lights a gather record draws per component by default (`--light-samples`; more draws with
 /// cheaper pairs did not pay everywhere, see [`beamlight_trace::vbl::DEFAULT_DIRECTIONS`]).
@@ -164,7 +209,7 @@ impl Default for ManyLightSettings {
             alpha: 0.7,
             light_samples: Some(DEFAULT_LIGHT_SAMPLES),
             media_light_samples: None,
-            media_drawing: Drawing::Descent,
+            media_drawing: MediaDraw::Auto,
             direct_samples: DEFAULT_DIRECT_SAMPLES,
             caustic_paths: None,
             beam_paths: DEFAULT_BEAM_PATHS,
@@ -420,11 +465,12 @@ pub fn start_pass(
     let beams_on = settings.lights == VirtualLights::Beams;
     // With light selection, each record draws `k` lights per component from the pass's trees.
     let r = r2.max(0.0).sqrt();
+    let media_drawing = settings.media_drawing.drawing(lights.vrls.len());
     let selection = match (beams_on, settings.light_samples) {
         (true, Some(k)) => Some(Selection {
             k: k.max(1),
             k_media: settings.media_light_samples.unwrap_or(k).max(1),
-            media_drawing: settings.media_drawing,
+            media_drawing,
             r,
             pair_seed: streams::pair_seed(seed),
             pass,
@@ -435,6 +481,35 @@ pub fn start_pass(
     };
     let kernels = gpu_kernels(settings.lights);
     let gpu = gpu.filter(|_| gpu_has_kernels(settings.lights));
+    // The GPU kernels a pass runs: those of the components it computes, or of one a walk
+    // record credits.
+    let run_kernels: [bool; KERNELS] = std::array::from_fn(|k| {
+        let kernel = GatherKernel::ALL[k];
+        let Some(i) = kernels.iter().position(|&x| x == kernel) else {
+            return false;
+        };
+        let credits = if kernel.on_surfaces() {
+            &point_credits
+        } else {
+            &segment_credits
+        };
+        gpu.is_some() && (on(KERNEL_COMPONENTS[i]) || credits.iter().any(|c| c.is_some_and(on)))
+    });
+    // A flat `Lmm` draw on the GPU draws by masses weighed here (see `GatherInputs`); the
+    // CPU's gathers weigh theirs group by group.
+    let clock = Instant::now();
+    let media_masses = match &selection {
+        Some(sel) if run_kernels[GatherKernel::VblMedia as usize] && media_drawing == Drawing::Flat => {
+            sel.vbls.group_masses(segments.len(), sel.r, |i| {
+                Receiver::along_segment(&ts.scene, &segments[i])
+            })
+        }
+        _ => Vec::new(),
+    };
+    if !media_masses.is_empty() {
+        times.component_cpu[Component::Lmm as usize] +=
+            clock.elapsed().as_secs_f64() * rayon::current_num_threads() as f64;
+    }
     // What the virtual-light gathers read, on the GPU or on the CPU.
     let inputs = GatherInputs {
         shading_points: &points,
@@ -449,31 +524,14 @@ pub fn start_pass(
         vbl: settings.vbl,
         light_samples: selection.as_ref().map_or(0, |s| s.k),
         media_light_samples: selection.as_ref().map_or(0, |s| s.k_media),
-        media_drawing: settings.media_drawing,
+        media_drawing,
+        media_masses: &media_masses,
         inject_nan: settings.inject_nan,
         vsl_tree: selection.as_ref().map_or(&[], |s| &s.vsls.nodes),
         vbl_tree: selection.as_ref().map_or(&[], |s| &s.vbls.nodes),
     };
     let pending = match gpu {
-        Some(g) => Some(g.gathers.submit(
-            &g.gpu,
-            &g.scene,
-            &ts.scene,
-            &inputs,
-            std::array::from_fn(|k| {
-                let kernel = GatherKernel::ALL[k];
-                let Some(i) = kernels.iter().position(|&x| x == kernel) else {
-                    return false;
-                };
-                // Needed when its own component is computed, or one a walk record credits.
-                let credits = if kernel.on_surfaces() {
-                    &point_credits
-                } else {
-                    &segment_credits
-                };
-                on(KERNEL_COMPONENTS[i]) || credits.iter().any(|c| c.is_some_and(on))
-            }),
-        )?),
+        Some(g) => Some(g.gathers.submit(&g.gpu, &g.scene, &ts.scene, &inputs, run_kernels)?),
         None => None,
     };
     let clock = Instant::now();

@@ -32,6 +32,14 @@ pub struct GatherInputs<'a> {
     pub media_light_samples: u32,
     /// How the VBL → camera segment gather draws (`--media-light-draw`).
     pub media_drawing: Drawing,
+    /// For a flat draw on the GPU: the masses each group of
+    /// [`FLAT_GROUP`](crate::light_tree::FLAT_GROUP) media segments draws by
+    /// ([`LightTree::group_masses`](crate::light_tree::LightTree::group_masses)). They are
+    /// weighed on the CPU, as the trees are built there, so that both backends draw by the
+    /// same bits (the GPU's `exp` and `log` are not libm's: its own masses would differ by
+    /// rounding, and once in a while move a stratified number across a leaf's boundary).
+    /// Empty otherwise.
+    pub media_masses: &'a [Vec<(u32, f32)>],
     /// The pass's light trees over `vpls` and `vrls` (empty without light selection).
     pub vsl_tree: &'a [LightTreeNode],
     pub vbl_tree: &'a [LightTreeNode],

@@ -467,7 +467,7 @@ impl Phases {
             if q.length_squared() > 1e-12 {
                 q.normalize()
             } else {
-                // Any perpendicular (the WGSL twin's choice).
+                // Any perpendicular.
                 let other = if self.d.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
                 self.d.cross(other).normalize()
             }
@@ -486,8 +486,8 @@ fn exp_asinh_m1(x: f32) -> f32 {
 
 /// The angle in [0, π] of a direction (cos, sin) = (`x`, `y`) with `y` ≥ 0 (negative `y` is
 /// taken as 0), by a polynomial for atan on [0, 1] (Abramowitz & Stegun 4.4.49, error
-/// ≤ 1·10⁻⁵) with the octants folded onto it: only +, −, ×, ÷, the same on the GPU
-/// (`arc_angle` in `shaders/lib/light_tree.wgsl`), and a fifth of the cost of `atan2`.
+/// ≤ 1·10⁻⁵) with the octants folded onto it: only +, −, ×, ÷, a fifth of the cost of
+/// `atan2`.
 fn arc_angle(y: f32, x: f32) -> f32 {
     let y = y.max(0.0);
     let atan01 = |t: f32| {

@@ -36,7 +36,7 @@
 //! a/(a+b) of the children's importances; the product of the choices is the leaf's
 //! probability. K lights per record make their root choices with the stratified numbers
 //! (k + ξ)/K, their deeper ones with fresh numbers (see [`LightTree::sample`]). Camera media
-//! segments may draw VBLs flat instead (`--media-light-draw flat`, [`Drawing`]):
+//! segments may draw VBLs flat instead (`--media-light-draw`, the default, [`Drawing`]):
 //! every leaf at once, by its own importance for the first record of a group of neighbours
 //! ([`FLAT_GROUP`]), the same stratified numbers on the running sum
 //! ([`LightTree::flat_masses`] says why). The estimate
@@ -155,8 +155,8 @@ pub enum Draw<'a> {
 }
 
 /// Consecutive gather records that share one flat draw: the masses of each group of this
-/// many are those of its first record's receiver ([`LightTree::group_masses`]; the GPU's
-/// `flat_group_first` in `shaders/lib/light_tree.wgsl` finds that record). Camera records are
+/// many are those of its first record's receiver ([`LightTree::group_masses`], which the
+/// GPU's kernel draws by too: `flat_masses` in `shaders/lib/light_tree.wgsl`). Camera records are
 /// traced in 4×4 tiles of pixels, so a group is about one tile's camera segments, which see
 /// the VBLs alike. The masses only steer the draw: any positive probability where a light
 /// can contribute keeps the estimate unbiased, and a leaf's mass is never below its share of
@@ -495,8 +495,8 @@ impl LightTree {
     /// for each group of [`FLAT_GROUP`] records that shares the masses, against some 4 µs a
     /// drawn pair (see docs/rendering.md for what it gains).
     ///
-    /// The sums are taken in node order, one light after the other, as the GPU's twin
-    /// (`flat_sums` in `shaders/lib/light_tree.wgsl`) takes them.
+    /// The GPU draws by these same masses (`GatherInputs::media_masses`), so they are weighed
+    /// only here.
     pub fn flat_masses(&self, rx: &Receiver, r: f32) -> Vec<(u32, f32)> {
         let leaves = || self.nodes.iter().filter(|n| n.is_leaf());
         let importances: Vec<f32> = leaves().map(|n| flat_importance(n, rx, r)).collect();
@@ -517,10 +517,12 @@ impl LightTree {
     /// The masses every group of records 0..`n` draws by ([`FLAT_GROUP`]): for group g,
     /// [`LightTree::flat_masses`] at the receiver of its first record, `rx(g · FLAT_GROUP)`.
     /// Record i's are at `i / FLAT_GROUP`.
-    pub fn group_masses(&self, n: usize, r: f32, rx: impl Fn(usize) -> Receiver) -> Vec<Vec<(u32, f32)>> {
-        (0..n)
-            .step_by(FLAT_GROUP)
-            .map(|first| self.flat_masses(&rx(first), r))
+    /// The groups are weighed in parallel.
+    pub fn group_masses(&self, n: usize, r: f32, rx: impl Fn(usize) -> Receiver + Sync) -> Vec<Vec<(u32, f32)>> {
+        use rayon::prelude::*;
+        (0..n.div_ceil(FLAT_GROUP))
+            .into_par_iter()
+            .map(|g| self.flat_masses(&rx(g * FLAT_GROUP), r))
             .collect()
     }
 
@@ -532,10 +534,13 @@ impl LightTree {
         let mut picks = Vec::with_capacity(k as usize);
         let mut slot = 0u32;
         let mut running = 0.0f32;
-        let threshold = |slot: u32| ((slot as f32 + xi) / k as f32).min(ONE_BELOW);
+        // (slot + ξ)/K < running, compared as slot + ξ < running·K: f32 addition and
+        // multiplication are correctly rounded on every GPU (division is not), so the WGSL
+        // twin makes the same picks from the same masses, bit for bit.
+        let passed = |slot: u32, running: f32| slot as f32 + xi < running * k as f32;
         for &(light, pmf) in masses {
             running += pmf;
-            while slot < k && threshold(slot) < running {
+            while slot < k && passed(slot, running) {
                 picks.push(Pick { light, pmf, slot });
                 slot += 1;
             }
