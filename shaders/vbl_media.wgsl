@@ -8,19 +8,29 @@
 // point by a piecewise-linear PDF in the angle about that centre, then the VSL's cone
 // integrated numerically.
 
-// `vrl::sample_near_line` with the distance floored at `min_dist`: (u, pdf).
-fn near_line_sample(ov: vec3<f32>, dv: vec3<f32>, len: f32, oc: vec3<f32>, dc: vec3<f32>, min_dist: f32, xi: f32) -> vec2<f32> {
+// `vrl::near_line_apex`: in the VRL's frame (the VRL from the origin along x), the point
+// whose equiangular density along the VRL is ∝ 1/max(dist(y(u), camera line), min_dist)²;
+// w = 0 for parallel lines.
+fn near_line_apex(ov: vec3<f32>, dv: vec3<f32>, oc: vec3<f32>, dc: vec3<f32>, min_dist: f32) -> vec4<f32> {
     let a = (ov - oc) - dc * dot(ov - oc, dc);
     let b = dv - dc * dot(dv, dc);
     let bb = dot(b, b);
     if !(bb > 1e-12) {
-        return vec2<f32>(xi * len, 1.0 / len);
+        return vec4<f32>(0.0);
     }
     let ab = dot(a, b);
     let u0 = -ab / bb;
     let h = sqrt(max(dot(a, a) - ab * ab / bb, 0.0) / bb);
-    let apex = vec3<f32>(u0, max(h, min_dist / sqrt(bb)), 0.0);
-    return equiangular(vec3<f32>(0.0), vec3<f32>(1.0, 0.0, 0.0), 0.0, len, apex, xi);
+    return vec4<f32>(u0, max(h, min_dist / sqrt(bb)), 0.0, 1.0);
+}
+
+// `vrl::sample_near_line` with the distance floored at `min_dist`: (u, pdf).
+fn near_line_sample(ov: vec3<f32>, dv: vec3<f32>, len: f32, oc: vec3<f32>, dc: vec3<f32>, min_dist: f32, xi: f32) -> vec2<f32> {
+    let apex = near_line_apex(ov, dv, oc, dc, min_dist);
+    if apex.w == 0.0 {
+        return vec2<f32>(xi * len, 1.0 / len);
+    }
+    return equiangular(vec3<f32>(0.0), vec3<f32>(1.0, 0.0, 0.0), 0.0, len, apex.xyz, xi);
 }
 
 // `vbl::hg_peak_gather`: the gather direction where hg(−ω', −travel) peaks, w = 0 when
@@ -50,8 +60,18 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     if !(vrl.length > 0.0 && seg.length > 0.0) {
         return vec3<f32>(0.0);
     }
-    // Stage 1: the VSL centre ∝ 1/dist(y(u), camera line)², the distance floored at R.
-    let stage1 = near_line_sample(ov, dv, vrl.length, oc, dc, r, next_1d(s));
+    // Stage 1: the VSL centre ∝ 1/dist(y(u), camera line)², the distance floored at R; in a
+    // medium with a density grid, times σ_s(y)'s density, by a piecewise-linear density in
+    // the angle about the apex.
+    let apex = near_line_apex(ov, dv, oc, dc, r);
+    let along = line_angles(vec3<f32>(0.0), vec3<f32>(1.0, 0.0, 0.0), 0.0, vrl.length, apex.xyz, 0.0);
+    var stage1: vec2<f32>;
+    if mv.grid_res.x != 0u && apex.w != 0.0 && !subtends_no_angle(along.theta0, along.theta1) {
+        let density = AngularIntegrand(ov, dv, vec3<f32>(0.0), 0.0, vec4<f32>(0.0), phase_lobe(0.0, dv, 1.0), phase_lobe(0.0, dv, 1.0), vrl.medium, 1u);
+        stage1 = sample_angular(along, density, 0.0, vrl.length, 0.0, next_1d(s));
+    } else {
+        stage1 = near_line_sample(ov, dv, vrl.length, oc, dc, r, next_1d(s));
+    }
     let u = stage1.x;
     let pdf_u = stage1.y;
     if !(pdf_u > 0.0 && finite_f32(pdf_u)) {
@@ -70,7 +90,7 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     let line = line_angles(oc, dc, 0.0, seg.length, y, r);
     let lobe = sharper(phase_y, phase_x);
     let u_angle = next_1d(s);
-    let integrand = AngularIntegrand(oc, dc, y, r2, peak, phase_x, phase_y);
+    let integrand = AngularIntegrand(oc, dc, y, r2, peak, phase_x, phase_y, seg.medium, 0u);
     let stage2 = sample_angular(line, integrand, 0.0, seg.length, lobe.scale, u_angle);
     let t = stage2.x;
     let pdf_t = stage2.y;
@@ -97,7 +117,8 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     return seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t);
 }
 
-// The hooks of lib/angular.wgsl: the camera point's angular density about the VSL centre y.
+// The hooks of lib/angular.wgsl: the camera point's angular density about the VSL centre y,
+// or stage 1's along the VRL.
 struct AngularIntegrand {
     oc: vec3<f32>,
     dc: vec3<f32>,
@@ -106,25 +127,32 @@ struct AngularIntegrand {
     peak: vec4<f32>,
     phase_x: Lobe,
     phase_y: Lobe,
+    medium: u32,
+    // 1: stage 1's density along the VRL o + t·d (only `o`, `d` and `medium` are set).
+    along_vrl: u32,
 }
 
-// Both phase functions at the camera point o_c + t·d_c, in the direction towards y (the VRL
-// paper's vertex rule) or the one in the VSL's cone closest to ω'_max.
+// Both phase functions at the camera point x = o_c + t·d_c, in the direction towards y (the
+// VRL paper's vertex rule) or the one in the VSL's cone closest to ω'_max, times σ_s(x)'s
+// density.
 fn angular_value(f: AngularIntegrand, t: f32) -> f32 {
+    if f.along_vrl != 0u {
+        return medium_density_near(f.medium, f.oc + f.dc * t);
+    }
     let x = f.oc + f.dc * t;
-    if params.angular_pdf == ANGULAR_PDF_VRL {
-        let w = normalize_or_zero(f.y - x);
-        return lobe_eval(f.phase_x, w).x * lobe_eval(f.phase_y, w).x;
+    var w = normalize_or_zero(f.y - x);
+    if params.angular_pdf != ANGULAR_PDF_VRL {
+        let cone = vsl_cone(x, f.y, f.r2, -f.dc);
+        if !cone.valid {
+            return 0.0;
+        }
+        w = cone.axis;
+        if f.peak.w != 0.0 {
+            w = closest_in_cone(cone, f.peak.xyz);
+        }
     }
-    let cone = vsl_cone(x, f.y, f.r2, -f.dc);
-    if !cone.valid {
-        return 0.0;
-    }
-    var w = cone.axis;
-    if f.peak.w != 0.0 {
-        w = closest_in_cone(cone, f.peak.xyz);
-    }
-    return lobe_eval(f.phase_x, w).x * lobe_eval(f.phase_y, w).x;
+    // σ_s(x)'s grid density: no camera point where the medium is empty.
+    return lobe_eval(f.phase_x, w).x * lobe_eval(f.phase_y, w).x * medium_density_near(f.medium, x);
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl

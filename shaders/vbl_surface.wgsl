@@ -22,7 +22,7 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     let line = line_angles(ov, dv, 0.0, len, p, sqrt(r2));
     let lobe = sharper(rx, phase);
     let u_angle = next_1d(s);
-    let sample = sample_angular(line, AngularIntegrand(ov, dv, p, r2, rx, phase), 0.0, len, lobe.scale, u_angle);
+    let sample = sample_angular(line, AngularIntegrand(ov, dv, p, r2, rx, phase, vrl.medium), 0.0, len, lobe.scale, u_angle);
     let u = sample.x;
     let pdf = sample.y;
     let rnd = cone_random(s);
@@ -56,23 +56,24 @@ struct AngularIntegrand {
     r2: f32,
     rx: Lobe,
     phase: Lobe,
+    medium: u32,
 }
 
 // The receiver's BSDF (mean over colours) times the phase function at the VRL point
 // o_v + u·d_v, in the direction towards it (the VRL paper's vertex rule) or the one in the
-// VSL's cone where the BSDF peaks.
+// VSL's cone where the BSDF peaks, times σ_s's density there.
 fn angular_value(f: AngularIntegrand, u: f32) -> f32 {
     let y = f.ov + f.dv * u;
-    if params.angular_pdf == ANGULAR_PDF_VRL {
-        let w = normalize_or_zero(y - f.p);
-        return luminance_mean(lobe_eval(f.rx, w)) * lobe_eval(f.phase, w).x;
+    var w = normalize_or_zero(y - f.p);
+    if params.angular_pdf != ANGULAR_PDF_VRL {
+        let cone = vsl_cone(f.p, y, f.r2, f.rx.n);
+        if !cone.valid {
+            return 0.0;
+        }
+        w = surface_max_dir(f.rx, cone);
     }
-    let cone = vsl_cone(f.p, y, f.r2, f.rx.n);
-    if !cone.valid {
-        return 0.0;
-    }
-    let w = surface_max_dir(f.rx, cone);
-    return luminance_mean(lobe_eval(f.rx, w)) * lobe_eval(f.phase, w).x;
+    // σ_s(y)'s grid density: no VSL centre where the medium is empty.
+    return luminance_mean(lobe_eval(f.rx, w)) * lobe_eval(f.phase, w).x * medium_density_near(f.medium, y);
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl

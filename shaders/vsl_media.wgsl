@@ -24,7 +24,7 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     let line = line_angles(o, d, 0.0, seg.length, q, sqrt(r2));
     let lobe = sharper(light, phase);
     let u_angle = next_1d(s);
-    let sample = sample_angular(line, AngularIntegrand(o, d, q, r2, light, phase), 0.0, seg.length, lobe.scale, u_angle);
+    let sample = sample_angular(line, AngularIntegrand(o, d, q, r2, light, phase, seg.medium), 0.0, seg.length, lobe.scale, u_angle);
     let t = sample.x;
     let pdf = sample.y;
     let rnd = cone_random(s);
@@ -58,23 +58,24 @@ struct AngularIntegrand {
     r2: f32,
     light: Lobe,
     phase: Lobe,
+    medium: u32,
 }
 
 // The VPL's BSDF (mean over colours) times the phase function at the camera point o + t·d,
 // in the direction towards q (the VRL paper's vertex rule) or the one in the VSL's cone where
-// the BSDF peaks.
+// the BSDF peaks, times σ_s(x)'s density.
 fn angular_value(f: AngularIntegrand, t: f32) -> f32 {
     let x = f.o + f.d * t;
-    if params.angular_pdf == ANGULAR_PDF_VRL {
-        let w = normalize_or_zero(f.q - x);
-        return luminance_mean(lobe_eval(f.light, w)) * lobe_eval(f.phase, w).x;
+    var w = normalize_or_zero(f.q - x);
+    if params.angular_pdf != ANGULAR_PDF_VRL {
+        let cone = vsl_cone(x, f.q, f.r2, -f.d);
+        if !cone.valid {
+            return 0.0;
+        }
+        w = surface_max_dir(f.light, cone);
     }
-    let cone = vsl_cone(x, f.q, f.r2, -f.d);
-    if !cone.valid {
-        return 0.0;
-    }
-    let w = surface_max_dir(f.light, cone);
-    return luminance_mean(lobe_eval(f.light, w)) * lobe_eval(f.phase, w).x;
+    // σ_s(x)'s grid density: no camera point where the medium is empty.
+    return luminance_mean(lobe_eval(f.light, w)) * lobe_eval(f.phase, w).x * medium_density_near(f.medium, x);
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl

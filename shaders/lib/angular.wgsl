@@ -18,9 +18,12 @@ fn pl_clean(v: f32) -> f32 {
 }
 
 // `vbl::vertex_count`: vertices for an angle range `extent` of an integrand varying on the
-// angular scale `scale`.
+// angular scale `scale`; a `scale` of 0 (a density grid's values) takes the most.
 fn vertex_count(extent: f32, scale: f32) -> u32 {
     let most = clamp(params.pdf_vertices, 2u, PL_MAX_VERTICES);
+    if !(scale > 0.0) {
+        return most;
+    }
     let wanted = ceil(4.0 * abs(extent) / scale) + 1.0;
     if wanted < f32(most) {
         return max(u32(wanted), 2u);

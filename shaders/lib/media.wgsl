@@ -51,6 +51,16 @@ fn grid_density(m: Medium, p: vec3<f32>) -> f32 {
     return c0 + (c1 - c0) * f.z;
 }
 
+// `Medium::density_near`: the density with `p` clamped into the grid's box (continuous, for
+// shaping sampling densities alike on both sides of a rounding error at the box's faces).
+fn medium_density_near(mi: u32, p: vec3<f32>) -> f32 {
+    let m = media[mi];
+    if m.grid_res.x == 0u {
+        return 1.0;
+    }
+    return grid_density(m, clamp(p, m.grid_lo, m.grid_hi));
+}
+
 // Density of medium `mi` at `p` (`Medium::density_at`): 1 in homogeneous media.
 fn medium_density(mi: u32, p: vec3<f32>) -> f32 {
     let m = media[mi];

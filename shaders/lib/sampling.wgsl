@@ -137,9 +137,8 @@ fn equiangular(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, c: vec3<f32>, u: f3
     let h = max(max(length_glam(c - (o + d * delta)), scale * 1e-6), F32_MIN_POSITIVE);
     let theta0 = precise_atan2(t0 - delta, h);
     let theta1 = precise_atan2(t1 - delta, h);
-    // `sampling::subtends_no_angle`: an interval too short, seen from c, to sample by angle
-    // is sampled uniformly.
-    if !(theta1 - theta0 > 1e-4 * max(abs(theta0), abs(theta1))) {
+    // An interval too short, seen from c, to sample by angle is sampled uniformly.
+    if subtends_no_angle(theta0, theta1) {
         let uniform_pdf = 1.0 / (t1 - t0);
         let ok = finite_f32(uniform_pdf) && uniform_pdf > 0.0;
         return vec2<f32>(clamp(t0 + u * (t1 - t0), t0, t1), select(0.0, uniform_pdf, ok));
@@ -212,6 +211,12 @@ fn expm1(x: f32) -> f32 {
         return p * x;
     }
     return exp(x) - 1.0;
+}
+
+// `sampling::subtends_no_angle`: whether the angles θ0 < θ1 of an interval's ends, seen from a
+// point, are too close for f32 to sample between.
+fn subtends_no_angle(theta0: f32, theta1: f32) -> bool {
+    return !(theta1 - theta0 > 1e-4 * max(abs(theta0), abs(theta1)));
 }
 
 // `sampling::LineAngles`: the segment o + t·d, t ∈ [t0, t1], as seen from c, the distance

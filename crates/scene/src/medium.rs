@@ -32,6 +32,14 @@ impl Medium {
     pub fn density_at(&self, p: Vec3) -> f32 {
         self.density.as_ref().map_or(1.0, |g| g.density(p))
     }
+
+    /// [`Medium::density_at`] with `p` clamped into the grid's box: continuous everywhere, for
+    /// shaping sampling densities. A point that a rounding error puts just outside the box
+    /// (the end of a segment on a wall that is also the grid's bound) gets the box's value,
+    /// not 0, so that the GPU, whose points differ from the CPU's by rounding, shapes alike.
+    pub fn density_near(&self, p: Vec3) -> f32 {
+        self.density.as_ref().map_or(1.0, |g| g.density(p.clamp(g.lo, g.hi)))
+    }
 }
 
 /// Voxels per majorant cell along each axis.

@@ -72,7 +72,7 @@ pub fn vrl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vrl: &LightSegment, cl
 /// |A + uB|² = |B|² ((u − u0)² + h²) (A, B the parts of ov − oc and dv perpendicular to dc),
 /// so a density ∝ 1/distance² is the equiangular density about the point (u0, h) of the
 /// (u, ·) plane. `None` when the lines are parallel (the distance does not vary).
-fn near_line_apex(ov: Vec3, dv: Vec3, oc: Vec3, dc: Vec3, min_dist: f32) -> Option<Vec3> {
+pub(crate) fn near_line_apex(ov: Vec3, dv: Vec3, oc: Vec3, dc: Vec3, min_dist: f32) -> Option<Vec3> {
     let a = (ov - oc) - dc * (ov - oc).dot(dc);
     let b = dv - dc * dv.dot(dc);
     let bb = b.length_squared();

@@ -13,10 +13,14 @@ pub(super) fn vertex_angle(line: &LineAngles, i: usize, k: usize) -> f32 {
 /// Vertices for a PDF over an angle range `extent` of an integrand varying on the angular scale
 /// `scale`: four per scale unit (a lobe is then resolved by several vertices), at most
 /// `settings.pdf_vertices`. A segment that subtends a small angle, e.g. a far VRL, needs only
-/// a few: the PDF shape changes the variance, never the expected value.
+/// a few: the PDF shape changes the variance, never the expected value. A `scale` of 0 (a
+/// density grid's values, on no angular scale) takes the most.
 #[inline]
 pub(super) fn vertex_count(settings: &VblSettings, extent: f32, scale: f32) -> usize {
     let max = (settings.pdf_vertices as usize).clamp(2, PIECEWISE_LINEAR_MAX_VERTICES);
+    if !(scale > 0.0) {
+        return max;
+    }
     let wanted = (4.0 * extent.abs() / scale).ceil() + 1.0;
     if wanted < max as f32 {
         (wanted as usize).max(2)

@@ -85,7 +85,12 @@ use crate::{
     lights::LightSample,
     media,
 };
-use beamlight_scene::{Rgb, luminance_mean, phase::HenyeyGreenstein, rng::Sampler, sampling::LineAngles};
+use beamlight_scene::{
+    Rgb, luminance_mean,
+    phase::HenyeyGreenstein,
+    rng::Sampler,
+    sampling::{LineAngles, subtends_no_angle},
+};
 use glam::Vec3;
 
 mod angular;
@@ -228,7 +233,7 @@ pub fn vbl_to_surface(
     let lobe = sharper(rx.lobe(), phase_lobe(hg, -dv, -1.0));
     let (u, pdf) = sample_angular(&line, 0.0, len, settings, lobe.1, s.next_1d(), |t| {
         let y = ov + dv * t;
-        match settings.pdf {
+        let f = match settings.pdf {
             AngularPdf::Vrl => {
                 let w = (y - p).normalize_or_zero();
                 luminance_mean(rx.f_cos(w)) * phase(w)
@@ -240,7 +245,9 @@ pub fn vbl_to_surface(
                 }
                 None => 0.0,
             },
-        }
+        };
+        // σ_s(y)'s grid density: no VSL centre where the medium is empty (1 when homogeneous).
+        f * m.density_near(y)
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
@@ -297,8 +304,22 @@ pub fn vbl_to_media(
         return Rgb::ZERO;
     }
     // Stage 1 (as the VRL paper): the VSL centre ∝ 1/dist(y(u), camera line)², the distance
-    // floored at R, where the VSL stops resolving it.
-    let (u, pdf_u) = crate::vrl::sample_near_line(ov, dv, vrl.length, oc, dc, r, s.next_1d());
+    // floored at R, where the VSL stops resolving it; in a medium with a density grid, times
+    // σ_s(y)'s density, by a piecewise-linear density in the angle that is uniform for the
+    // first factor alone (no VSL centre where the medium is empty).
+    let (u, pdf_u) = match (&mv.density, crate::vrl::near_line_apex(ov, dv, oc, dc, r)) {
+        (Some(_), Some(apex)) => {
+            let line = LineAngles::new(Vec3::ZERO, Vec3::X, 0.0, vrl.length, apex, 0.0);
+            if subtends_no_angle(line.theta0, line.theta1) {
+                crate::vrl::sample_near_line(ov, dv, vrl.length, oc, dc, r, s.next_1d())
+            } else {
+                sample_angular(&line, 0.0, vrl.length, settings, 0.0, s.next_1d(), |u| {
+                    mv.density_near(ov + dv * u)
+                })
+            }
+        }
+        _ => crate::vrl::sample_near_line(ov, dv, vrl.length, oc, dc, r, s.next_1d()),
+    };
     if !(pdf_u > 0.0 && pdf_u.is_finite()) {
         return Rgb::ZERO;
     }
@@ -321,7 +342,8 @@ pub fn vbl_to_media(
                 None => return 0.0,
             },
         };
-        phase_x(w) * phase_y(w)
+        // σ_s(x)'s grid density: no camera point where the medium is empty.
+        phase_x(w) * phase_y(w) * mc.density_near(x)
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf_t > 0.0) {
@@ -393,7 +415,8 @@ pub fn vsl_to_media(
                 None => return 0.0,
             },
         };
-        luminance_mean(light.f_cos(w)) * phase(w)
+        // σ_s(x)'s grid density: no camera point where the medium is empty.
+        luminance_mean(light.f_cos(w)) * phase(w) * m.density_near(x)
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
