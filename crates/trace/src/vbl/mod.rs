@@ -94,6 +94,10 @@ use beamlight_scene::{
 use glam::Vec3;
 
 mod angular;
+/// The scene crate's chi-square harness, for the samplers' tests.
+#[cfg(test)]
+#[path = "../../../scene/tests/common/mod.rs"]
+mod chi2;
 mod cone;
 use angular::*;
 use cone::*;
