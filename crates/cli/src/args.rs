@@ -214,8 +214,9 @@ pub(crate) struct RenderArgs {
     /// weighing every beam of the pass by its pair integral with both phase functions for
     /// each 4x4 tile of pixels (at equal time `Lmm` noise 23x lower than the descent in the
     /// glossy fog box, 2.4x in the smoke box), `descent` down the light tree (cheaper when a
-    /// pass has very many beams), or `auto`: flat up to 4096 beams a pass, the descent beyond
-    /// (see docs/rendering.md)
+    /// pass has very many beams), or `auto`: flat up to 4096 beams a pass (fewer in large
+    /// images, whose per-tile masses must fit in 2^25), the descent beyond (see
+    /// docs/rendering.md)
     #[arg(long, value_enum, default_value = "auto")]
     pub(crate) media_light_draw: MediaDrawArg,
     /// Many-light methods: camera samples per pixel per pass for direct light (its own pixel

@@ -354,7 +354,8 @@ impl Gathers {
             pass.set_bind_group(0, &scene.bind_group, &[]);
             for first in (0..records).step_by(chunk) {
                 let n = chunk.min(records - first);
-                let params = |row: u32| GatherParams {
+                let (x, y, row) = compute::dispatch_size(gpu, n as u32);
+                let params = GatherParams {
                     pair_seed: inputs.pair_seed,
                     pass_index: inputs.pass,
                     records: n as u32,
@@ -377,6 +378,7 @@ impl Gathers {
                     poison: if inputs.inject_nan { f32::NAN.to_bits() } else { 0 },
                     media_drawing: (inputs.media_drawing == Drawing::Flat) as u32,
                 };
+                let params = compute::uniform(gpu, "gather params", &params);
                 // This chunk's records; of the other kind's array (unused) just its start.
                 fn chunk_of(
                     buffer: &wgpu::Buffer,
@@ -391,36 +393,33 @@ impl Gathers {
                         compute::Binding::range(buffer, 0, buffer.size().min(size as u64))
                     }
                 }
-                let on_surfaces = k.on_surfaces();
-                let bind = |params: &wgpu::Buffer| {
-                    compute::bind_group_ranges(
-                        gpu,
-                        kernel.name,
-                        &kernel.layouts[1],
-                        &[
-                            compute::Binding::Whole(params),
-                            chunk_of(&points, first, n, size_of::<ShadingPoint>(), on_surfaces),
-                            chunk_of(&point_bsdfs, first, n, size_of::<layout::Bsdf>(), on_surfaces),
-                            chunk_of(&segments, first, n, size_of::<MediaSegment>(), !on_surfaces),
-                            compute::Binding::Whole(&vpls),
-                            compute::Binding::Whole(&vpl_bsdfs),
-                            compute::Binding::Whole(&vrls),
-                            chunk_of(&out, first, n, 16, true),
-                            compute::Binding::Whole(&trees),
-                            match flat {
-                                true => {
-                                    let row = (stride * size_of::<f32>()) as u64;
-                                    let groups = n.div_ceil(FLAT_GROUP) as u64;
-                                    compute::Binding::range(&masses, (first / FLAT_GROUP) as u64 * row, groups * row)
-                                }
-                                false => compute::Binding::range(&masses, 0, size_of::<f32>() as u64),
-                            },
-                        ],
-                    )
+                // The chunk's groups' rows of masses (its first record is a multiple of 16).
+                let masses_of_chunk = if flat {
+                    let row = (stride * size_of::<f32>()) as u64;
+                    let groups = n.div_ceil(FLAT_GROUP) as u64;
+                    compute::Binding::range(&masses, (first / FLAT_GROUP) as u64 * row, groups * row)
+                } else {
+                    compute::Binding::range(&masses, 0, size_of::<f32>() as u64)
                 };
-                let (x, y, row) = compute::dispatch_size(gpu, n as u32);
-                let params = compute::uniform(gpu, "gather params", &params(row));
-                pass.set_bind_group(1, &bind(&params), &[]);
+                let on_surfaces = k.on_surfaces();
+                let group = compute::bind_group_ranges(
+                    gpu,
+                    kernel.name,
+                    &kernel.layouts[1],
+                    &[
+                        compute::Binding::Whole(&params),
+                        chunk_of(&points, first, n, size_of::<ShadingPoint>(), on_surfaces),
+                        chunk_of(&point_bsdfs, first, n, size_of::<layout::Bsdf>(), on_surfaces),
+                        chunk_of(&segments, first, n, size_of::<MediaSegment>(), !on_surfaces),
+                        compute::Binding::Whole(&vpls),
+                        compute::Binding::Whole(&vpl_bsdfs),
+                        compute::Binding::Whole(&vrls),
+                        chunk_of(&out, first, n, 16, true),
+                        compute::Binding::Whole(&trees),
+                        masses_of_chunk,
+                    ],
+                );
+                pass.set_bind_group(1, &group, &[]);
                 pass.dispatch_workgroups(x, y, 1);
             }
             drop(pass);
@@ -473,8 +472,13 @@ fn flat_masses(gpu: &Gpu, inputs: &GatherInputs, vbl_media: bool) -> Result<(wgp
             inputs.media_masses.len()
         )));
     }
-    // The kernel walks this many leaves (its tree's, `(nodes + 1) / 2` of a binary tree).
-    debug_assert_eq!(leaves, inputs.vbl_tree.len().div_ceil(2));
+    // The kernel strides by (nodes + 1) / 2 leaves (`flat_stride`), a binary tree's.
+    if leaves != inputs.vbl_tree.len().div_ceil(2) {
+        return Err(GpuError::Inputs(format!(
+            "a VBL tree of {} nodes has {leaves} leaves, not a binary tree's",
+            inputs.vbl_tree.len()
+        )));
+    }
     let stride = leaves.next_multiple_of(64).max(64);
     let mut table = vec![0.0f32; groups * stride];
     for (row, group) in table.chunks_exact_mut(stride).zip(inputs.media_masses) {

@@ -23,7 +23,7 @@ use beamlight_trace::{
     components::Component,
     direct,
     light_paths::{Keep, LightTracerSettings, trace_light_paths},
-    light_tree::{Drawing, LightTree, Receiver},
+    light_tree::{Drawing, FLAT_GROUP, LightTree, Receiver},
     streams,
     vbl::VblSettings,
 };
@@ -110,7 +110,8 @@ pub struct ManyLightSettings {
 /// How camera media segments draw their VBLs for `Lmm` (`--media-light-draw`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MediaDraw {
-    /// Flat while a pass has at most [`FLAT_MAX_VBLS`] VBLs, by the descent beyond.
+    /// Flat while a pass has at most [`FLAT_MAX_VBLS`] VBLs and [`FLAT_MAX_MASSES`] masses, by
+    /// the descent beyond.
     #[default]
     Auto,
     /// Always down the tree ([`Drawing::Descent`]).
@@ -122,10 +123,11 @@ pub enum MediaDraw {
 impl MediaDraw {
     pub const ALL: [MediaDraw; 3] = [MediaDraw::Auto, MediaDraw::Descent, MediaDraw::Flat];
 
-    /// How a pass with `vbls` VBLs draws them.
-    pub fn drawing(self, vbls: usize) -> Drawing {
+    /// How a pass with `vbls` VBLs and `segments` camera media segments draws them.
+    pub fn drawing(self, vbls: usize, segments: usize) -> Drawing {
+        let masses = segments.div_ceil(FLAT_GROUP) * vbls;
         match self {
-            MediaDraw::Auto if vbls <= FLAT_MAX_VBLS => Drawing::Flat,
+            MediaDraw::Auto if vbls <= FLAT_MAX_VBLS && masses <= FLAT_MAX_MASSES => Drawing::Flat,
             MediaDraw::Auto | MediaDraw::Descent => Drawing::Descent,
             MediaDraw::Flat => Drawing::Flat,
         }
@@ -150,6 +152,13 @@ impl MediaDraw {
 /// VBLs) 5.4e-3 (20 passes) against 5.1e-2 (131). Beyond some 4 000 its cost per pass would
 /// keep growing while the descent's would not, so the default stops there.
 pub const FLAT_MAX_VBLS: usize = 4096;
+
+/// The most masses (groups of [`FLAT_GROUP`] camera media segments × VBLs) a pass draws flat
+/// by default: with the GPU they are held for the whole pass (8 bytes each on the CPU, 4 on
+/// the GPU), 2²⁵ of them some 400 MB. At 1280×720 (about 58 000 groups of one segment a
+/// pixel) that allows some 580 VBLs, over twice the default 64 light paths' (about 220 in the
+/// glossy fog box).
+pub const FLAT_MAX_MASSES: usize = 1 << 25;
 
 /// Lights a gather record draws per component by default (`--light-samples`; more draws with
 /// cheaper pairs did not pay everywhere, see [`beamlight_trace::vbl::DEFAULT_DIRECTIONS`]).
@@ -465,7 +474,7 @@ pub fn start_pass(
     let beams_on = settings.lights == VirtualLights::Beams;
     // With light selection, each record draws `k` lights per component from the pass's trees.
     let r = r2.max(0.0).sqrt();
-    let media_drawing = settings.media_drawing.drawing(lights.vrls.len());
+    let media_drawing = settings.media_drawing.drawing(lights.vrls.len(), segments.len());
     let selection = match (beams_on, settings.light_samples) {
         (true, Some(k)) => Some(Selection {
             k: k.max(1),
@@ -637,4 +646,25 @@ fn direct_light(ts: &TraceScene, gather: &GatherSet, seed: u32, pass: u32, injec
         out[pixel as usize] += admit(injected(v, inject_nan && i == 0), &mut discarded);
     }
     discarded
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `auto` draws flat within both caps and descends beyond either; the explicit settings
+    /// ignore them.
+    #[test]
+    fn auto_media_draw_keeps_to_its_caps() {
+        let (vbls, segments) = (220, 96 * 96);
+        assert_eq!(MediaDraw::Auto.drawing(vbls, segments), Drawing::Flat);
+        assert_eq!(MediaDraw::Auto.drawing(FLAT_MAX_VBLS, 16), Drawing::Flat);
+        assert_eq!(MediaDraw::Auto.drawing(FLAT_MAX_VBLS + 1, 16), Drawing::Descent);
+        // 1280×720 with one segment a pixel: 57 600 groups.
+        let hd = 1280 * 720;
+        assert_eq!(MediaDraw::Auto.drawing(580, hd), Drawing::Flat);
+        assert_eq!(MediaDraw::Auto.drawing(600, hd), Drawing::Descent);
+        assert_eq!(MediaDraw::Flat.drawing(FLAT_MAX_VBLS + 1, hd), Drawing::Flat);
+        assert_eq!(MediaDraw::Descent.drawing(vbls, segments), Drawing::Descent);
+    }
 }
