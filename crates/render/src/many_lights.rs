@@ -121,8 +121,6 @@ pub enum MediaDraw {
 }
 
 impl MediaDraw {
-    pub const ALL: [MediaDraw; 3] = [MediaDraw::Auto, MediaDraw::Descent, MediaDraw::Flat];
-
     /// How a pass with `vbls` VBLs and `segments` camera media segments draws them.
     pub fn drawing(self, vbls: usize, segments: usize) -> Drawing {
         let masses = segments.div_ceil(FLAT_GROUP) * vbls;
