@@ -128,7 +128,8 @@ struct AngularIntegrand {
     phase_x: Lobe,
     phase_y: Lobe,
     medium: u32,
-    // 1: stage 1's density along the VRL o + t·d (only `o`, `d` and `medium` are set).
+    // 1: stage 1's density along the VRL oc + t·dc (`oc`, `dc` then the VRL's origin and
+    // direction, `medium` its medium; the other fields unused).
     along_vrl: u32,
 }
 

@@ -64,16 +64,8 @@ struct AngularIntegrand {
 // VSL's cone where the BSDF peaks, times σ_s's density there.
 fn angular_value(f: AngularIntegrand, u: f32) -> f32 {
     let y = f.ov + f.dv * u;
-    var w = normalize_or_zero(y - f.p);
-    if params.angular_pdf != ANGULAR_PDF_VRL {
-        let cone = vsl_cone(f.p, y, f.r2, f.rx.n);
-        if !cone.valid {
-            return 0.0;
-        }
-        w = surface_max_dir(f.rx, cone);
-    }
     // σ_s(y)'s grid density: no VSL centre where the medium is empty.
-    return luminance_mean(lobe_eval(f.rx, w)) * lobe_eval(f.phase, w).x * medium_density_near(f.medium, y);
+    return surface_vertex_value(f.rx, f.phase, f.p, y, f.r2, f.rx.n) * medium_density_near(f.medium, y);
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl

@@ -66,16 +66,8 @@ struct AngularIntegrand {
 // the BSDF peaks, times σ_s(x)'s density.
 fn angular_value(f: AngularIntegrand, t: f32) -> f32 {
     let x = f.o + f.d * t;
-    var w = normalize_or_zero(f.q - x);
-    if params.angular_pdf != ANGULAR_PDF_VRL {
-        let cone = vsl_cone(x, f.q, f.r2, -f.d);
-        if !cone.valid {
-            return 0.0;
-        }
-        w = surface_max_dir(f.light, cone);
-    }
     // σ_s(x)'s grid density: no camera point where the medium is empty.
-    return luminance_mean(lobe_eval(f.light, w)) * lobe_eval(f.phase, w).x * medium_density_near(f.medium, x);
+    return surface_vertex_value(f.light, f.phase, x, f.q, f.r2, -f.d) * medium_density_near(f.medium, x);
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl

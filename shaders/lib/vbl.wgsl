@@ -310,6 +310,22 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col
     return sum * (cone.weight / omega);
 }
 
+// `vbl::surface_vertex_value`: an angular density's vertex value between a surface's lobe
+// (mean over colours) and a phase function, seen from `at`: both at the direction towards
+// `centre` (the VRL paper's rule) or at the direction in the VSL's cone (squared radius r2,
+// `fallback` when `at` is inside it) where the surface's lobe peaks; 0 without a cone.
+fn surface_vertex_value(surface: Lobe, phase: Lobe, at: vec3<f32>, centre: vec3<f32>, r2: f32, fallback: vec3<f32>) -> f32 {
+    var w = normalize_or_zero(centre - at);
+    if params.angular_pdf != ANGULAR_PDF_VRL {
+        let cone = vsl_cone(at, centre, r2, fallback);
+        if !cone.valid {
+            return 0.0;
+        }
+        w = surface_max_dir(surface, cone);
+    }
+    return luminance_mean(lobe_eval(surface, w)) * lobe_eval(phase, w).x;
+}
+
 // A shadow ray from `origin` to `target_point` starting in `medium` (`vbl::connect`): 1 when
 // the receiver is at the VSL centre (`dist` = 0).
 fn connect(origin: vec3<f32>, target_point: vec3<f32>, dist: f32, medium: u32, s: ptr<function, Sampler>) -> vec3<f32> {

@@ -206,6 +206,30 @@ fn hg_peak_gather(g: f32, travel: Vec3) -> Option<Vec3> {
     }
 }
 
+/// The vertex value of an angular density between a surface's lobe (mean over colours) and a
+/// phase function, seen from `at`: both at the direction towards `centre` (the VRL paper's
+/// rule) or at the direction in the VSL's cone (squared radius `r2`, `fallback` when `at` is
+/// inside it) where the surface's lobe peaks; 0 when there is no cone. The WGSL twin is
+/// `surface_vertex_value` in `shaders/lib/vbl.wgsl`.
+fn surface_vertex_value(
+    settings: &VblSettings,
+    surface: &Surface,
+    phase: impl Fn(Vec3) -> f32,
+    at: Vec3,
+    centre: Vec3,
+    r2: f32,
+    fallback: Vec3,
+) -> f32 {
+    let w = match settings.pdf {
+        AngularPdf::Vrl => (centre - at).normalize_or_zero(),
+        AngularPdf::Vbl => match vsl_cone(at, centre, r2, fallback) {
+            Some(cone) => surface.max_dir(&cone),
+            None => return 0.0,
+        },
+    };
+    luminance_mean(surface.f_cos(w)) * phase(w)
+}
+
 /// Light a VBL scatters towards a camera shading point (`Lsm`, eqs. 8–9), per light path traced.
 /// `r2` is the squared VBL radius of the pass (eq. 11).
 pub fn vbl_to_surface(
@@ -237,21 +261,8 @@ pub fn vbl_to_surface(
     let lobe = sharper(rx.lobe(), phase_lobe(hg, -dv, -1.0));
     let (u, pdf) = sample_angular(&line, 0.0, len, settings, lobe.1, s.next_1d(), |t| {
         let y = ov + dv * t;
-        let f = match settings.pdf {
-            AngularPdf::Vrl => {
-                let w = (y - p).normalize_or_zero();
-                luminance_mean(rx.f_cos(w)) * phase(w)
-            }
-            AngularPdf::Vbl => match vsl_cone(p, y, r2, rx.n) {
-                Some(cone) => {
-                    let w = rx.max_dir(&cone);
-                    luminance_mean(rx.f_cos(w)) * phase(w)
-                }
-                None => 0.0,
-            },
-        };
         // σ_s(y)'s grid density: no VSL centre where the medium is empty (1 when homogeneous).
-        f * m.density_near(y)
+        surface_vertex_value(settings, &rx, phase, p, y, r2, rx.n) * m.density_near(y)
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
@@ -412,15 +423,8 @@ pub fn vsl_to_media(
     let lobe = sharper(light.lobe(), phase_lobe(hg, -d, 1.0));
     let (t, pdf) = sample_angular(&line, 0.0, seg.length, settings, lobe.1, s.next_1d(), |t| {
         let x = o + d * t;
-        let w = match settings.pdf {
-            AngularPdf::Vrl => (q - x).normalize_or_zero(),
-            AngularPdf::Vbl => match vsl_cone(x, q, r2, -d) {
-                Some(cone) => light.max_dir(&cone),
-                None => return 0.0,
-            },
-        };
         // σ_s(x)'s grid density: no camera point where the medium is empty.
-        luminance_mean(light.f_cos(w)) * phase(w) * m.density_near(x)
+        surface_vertex_value(settings, &light, phase, x, q, r2, -d) * m.density_near(x)
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
