@@ -39,7 +39,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 sum += admit(light_contribution(r, j, &s), &discarded);
             }
         } else if tree.y > 0u {
-            let receiver = record_receiver(r);
             let xi = selection_number(GATHER_KIND, i);
             if GATHER_KIND == KIND_VRL_TO_MEDIA && params.media_drawing == 1u {
                 // `Lmm` drawn flat (`LightTree::sample_flat_k`): by the masses of the record's
@@ -80,6 +79,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     }
                 }
             } else {
+                let receiver = record_receiver(r);
                 for (var k = 0u; k < params.light_samples; k++) {
                     let pick = tree_sample_slot(tree.x, receiver, GATHER_KIND, i, k, xi);
                     if pick.found {

@@ -27,7 +27,7 @@ const ONE_BELOW: f32 = 0.99999994;
 @group(1) @binding(8) var<storage, read> light_tree: array<LightTreeNode>;
 // The flat draw's masses (`LightTree::group_masses`, weighed on the CPU: `flat_masses` in
 // crates/gpu/src/gather.rs): row g the pmfs of the leaves, in node order, for the dispatch's
-// g-th group of `FLAT_GROUP` records, each row `flat_stride(tree)` long.
+// g-th group of `FLAT_GROUP` records, each row `flat_stride(tree.y)` long.
 @group(1) @binding(9) var<storage, read> flat_masses: array<f32>;
 
 // `light_tree::Receiver`: a shading point (a = p, b = n, and its `Gloss`) or a media segment
