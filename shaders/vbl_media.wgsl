@@ -103,7 +103,8 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let sigma_y = mv.sigma_s * medium_density(vrl.medium, y);
+    // The grid's density at y enters at each collection point (`collection_weight`).
+    let sigma_y = mv.sigma_s;
     let sigma_x = mc.sigma_s * medium_density(seg.medium, x);
     let t_vrl = transmittance(vrl.medium, ov, dv, u, s);
     let t_cam = transmittance(seg.medium, oc, dc, t, s);
@@ -112,7 +113,7 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = with_end_wall(Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0)), seg);
+    let col = with_end_wall(Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0), vrl.medium), seg);
     let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, col, rnd);
     return seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t);
 }

@@ -34,7 +34,8 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     if !cone.valid {
         return vec3<f32>(0.0);
     }
-    let sigma_s = m.sigma_s * medium_density(vrl.medium, y);
+    // The grid's density enters at each collection point (`collection_weight`).
+    let sigma_s = m.sigma_s;
     let t_vrl = transmittance(vrl.medium, ov, dv, u, s);
     let dist = length_glam(y - p);
     // The shadow ray leaves on the viewer's side: a centre behind the surface is occluded.
@@ -43,7 +44,7 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0));
+    let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0), vrl.medium);
     let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, col, rnd);
     return sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf;
 }
@@ -61,11 +62,12 @@ struct AngularIntegrand {
 
 // The receiver's BSDF (mean over colours) times the phase function at the VRL point
 // o_v + u·d_v, in the direction towards it (the VRL paper's vertex rule) or the one in the
-// VSL's cone where the BSDF peaks, times σ_s's density there.
+// VSL's cone where the BSDF peaks, times the largest of σ_s's density there and R away
+// (the light scatters at collection points up to R from y).
 fn angular_value(f: AngularIntegrand, u: f32) -> f32 {
     let y = f.ov + f.dv * u;
-    // σ_s(y)'s grid density: no VSL centre where the medium is empty.
-    return surface_vertex_value(f.rx, f.phase, f.p, y, f.r2, f.rx.n) * medium_density_near(f.medium, y);
+    // No VSL centre whose sphere holds no medium.
+    return surface_vertex_value(f.rx, f.phase, f.p, y, f.r2, f.rx.n) * medium_density_within(f.medium, y, sqrt(f.r2));
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl

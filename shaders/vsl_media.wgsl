@@ -45,7 +45,7 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, tr, false, vec3<f32>(0.0), vec3<f32>(0.0));
+    let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, tr, false, vec3<f32>(0.0), vec3<f32>(0.0), NO_MEDIUM);
     let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, col, rnd);
     return seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf;
 }

@@ -24,7 +24,7 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, s
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, tr, false, vec3<f32>(0.0), vec3<f32>(0.0));
+    let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, tr, false, vec3<f32>(0.0), vec3<f32>(0.0), NO_MEDIUM);
     let l_vsl = integrate_cone(cone, params.directions, lobe, rx, light, col, rnd);
     return sp.throughput * vpl.power * l_vsl;
 }

@@ -61,6 +61,22 @@ fn medium_density_near(mi: u32, p: vec3<f32>) -> f32 {
     return grid_density(m, clamp(p, m.grid_lo, m.grid_hi));
 }
 
+// `Medium::density_within`: the largest of the density near p and near the six points r away
+// along the axes.
+fn medium_density_within(mi: u32, p: vec3<f32>, r: f32) -> f32 {
+    let m = media[mi];
+    if m.grid_res.x == 0u {
+        return 1.0;
+    }
+    var best = grid_density(m, clamp(p, m.grid_lo, m.grid_hi));
+    for (var axis = 0u; axis < 3u; axis++) {
+        var offset = vec3<f32>(0.0);
+        offset[axis] = r;
+        best = max(max(best, grid_density(m, clamp(p + offset, m.grid_lo, m.grid_hi))), grid_density(m, clamp(p - offset, m.grid_lo, m.grid_hi)));
+    }
+    return best;
+}
+
 // Density of medium `mi` at `p` (`Medium::density_at`): 1 in homogeneous media.
 fn medium_density(mi: u32, p: vec3<f32>) -> f32 {
     let m = media[mi];

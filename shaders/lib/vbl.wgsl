@@ -206,6 +206,9 @@ struct Collection {
     has_wall: bool,
     wall_point: vec3<f32>,
     wall_normal: vec3<f32>,
+    // `Collection::medium`: a VBL point's medium, whose density at the collection point scales
+    // the light (1 in a homogeneous medium); NO_MEDIUM for a VPL's photon.
+    medium: u32,
 }
 
 // `Wall::near`: `col` with the wall camera segment `seg` ends on, if its receiver lies within
@@ -238,7 +241,7 @@ fn transmittance_share(tr: vec3<f32>, share: f32) -> vec3<f32> {
 }
 
 // `Collection::weight`: the transmittance to the collection point over the uncut fraction of the
-// ellipse, along ω' = w.
+// ellipse, along ω' = w, times the density there for a VBL point in a density grid.
 fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
     let to = col.centre - col.origin;
     let n = select(w, col.plane, col.has_plane);
@@ -269,7 +272,12 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
             weight *= uncut_weight(wall_height, wall_reach);
         }
     }
-    return transmittance_share(col.transmittance, share) * weight;
+    // Clamped into the grid's box, as on the CPU.
+    var density = 1.0;
+    if col.medium != NO_MEDIUM {
+        density = medium_density_near(col.medium, col.origin + w * max(t, 0.0));
+    }
+    return transmittance_share(col.transmittance, share) * (weight * density);
 }
 
 // `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') · collection_weight(col, ω') and

@@ -40,6 +40,21 @@ impl Medium {
     pub fn density_near(&self, p: Vec3) -> f32 {
         self.density.as_ref().map_or(1.0, |g| g.density(p.clamp(g.lo, g.hi)))
     }
+
+    /// The largest of [`Medium::density_near`] at `p` and at the six points `r` away from it
+    /// along the axes: a cheap stand-in for the largest density within a sphere of radius `r`
+    /// about `p`, for shaping the sampling of VSL centres whose light scatters anywhere in it.
+    pub fn density_within(&self, p: Vec3, r: f32) -> f32 {
+        let Some(g) = self.density.as_ref() else {
+            return 1.0;
+        };
+        let at = |q: Vec3| g.density(q.clamp(g.lo, g.hi));
+        let mut best = at(p);
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+            best = best.max(at(p + axis * r)).max(at(p - axis * r));
+        }
+        best
+    }
 }
 
 /// Voxels per majorant cell along each axis.
