@@ -109,7 +109,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
                 beamlight_render::auto::MIN_VBL_PASSES,
                 if probed {
                     format!(
-                        ", and with --time only if {} of its passes fit in a tenth of the budget (a pass's cost measured first on a small image)",
+                        ", and with --time only on the components whose {} passes fit in a tenth of the budget (a pass's cost per component measured first on a small image)",
                         beamlight_render::auto::MIN_VBL_PASSES
                     )
                 } else {

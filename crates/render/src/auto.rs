@@ -98,9 +98,9 @@ struct Costs {
     vbl_passes: u64,
     vbl_component: [f64; N],
     vbl_component_passes: [u64; N],
-    /// A whole `vbl` pass's seconds as the probe predicts them (its seconds scaled by the
-    /// pixels: a pass's cost is mostly its gathers), until a pass is measured.
-    vbl_predicted: Option<f64>,
+    /// A `vbl` pass of the render as the probe predicts it: the shared seconds and each
+    /// component's, the probe's scaled by the pixels (a pass's cost is mostly its gathers).
+    vbl_predicted: Option<(f64, [f64; N])>,
 }
 
 impl Costs {
@@ -122,16 +122,6 @@ impl Costs {
         }
     }
 
-    /// What a `vbl` pass over every needed component costs: measured, or predicted by the
-    /// probe, or unknown.
-    fn vbl_pass(&self, needed: &[bool; N]) -> Option<f64> {
-        if self.vbl_passes > 0 {
-            Some(choice_seconds(Choice::Vbl(*needed), self))
-        } else {
-            self.vbl_predicted
-        }
-    }
-
     fn shared(&self) -> f64 {
         self.vbl_shared / self.vbl_passes.max(1) as f64
     }
@@ -141,28 +131,35 @@ impl Costs {
     }
 
     fn add_vbl(&mut self, times: &PassTimes, wall: f64, computed: &[bool; N]) {
-        let threads = rayon::current_num_threads() as f64;
-        let mut busy = [0f64; N];
-        for (k, b) in busy.iter_mut().enumerate() {
-            *b = times.component_cpu[k] / threads;
-        }
-        let kernels = many_lights::gpu_kernels(many_lights::VirtualLights::Beams);
-        for (kernel, c) in kernels.iter().zip(many_lights::KERNEL_COMPONENTS) {
-            busy[c as usize] += times.kernels[*kernel as usize];
-        }
-        // The estimators overlap (CPU and GPU) and run on several threads: scale their shares
-        // to the pass's wall time when they add up to more.
-        let sum: f64 = busy.iter().sum();
-        let scale = if sum > wall { wall / sum } else { 1.0 };
-        self.vbl_shared += (wall - sum * scale).max(0.0);
+        let (shared, busy) = split_pass(times, wall);
+        self.vbl_shared += shared;
         self.vbl_passes += 1;
         for k in 0..N {
             if computed[k] {
-                self.vbl_component[k] += busy[k] * scale;
+                self.vbl_component[k] += busy[k];
                 self.vbl_component_passes[k] += 1;
             }
         }
     }
+}
+
+/// A `vbl` pass's `wall` seconds split into the part no component's estimator accounts for
+/// (tracing, the light trees) and each component's.
+fn split_pass(times: &PassTimes, wall: f64) -> (f64, [f64; N]) {
+    let threads = rayon::current_num_threads() as f64;
+    let mut busy = [0f64; N];
+    for (k, b) in busy.iter_mut().enumerate() {
+        *b = times.component_cpu[k] / threads;
+    }
+    let kernels = many_lights::gpu_kernels(many_lights::VirtualLights::Beams);
+    for (kernel, c) in kernels.iter().zip(many_lights::KERNEL_COMPONENTS) {
+        busy[c as usize] += times.kernels[*kernel as usize];
+    }
+    // The estimators overlap (CPU and GPU) and run on several threads: scale their shares
+    // to the pass's wall time when they add up to more.
+    let sum: f64 = busy.iter().sum();
+    let scale = if sum > wall { wall / sum } else { 1.0 };
+    ((wall - sum * scale).max(0.0), busy.map(|b| b * scale))
 }
 
 /// `--method auto` as a schedule over two sources, the path tracer ([`PT`]) and `vbl`
@@ -316,7 +313,9 @@ impl Schedule for Auto {
         if step.source == PROBE {
             // Its image is thrown away (another image size, and the render's `vbl` passes are
             // what the combination counts).
-            self.costs.vbl_predicted = Some(seconds * self.probe_scale);
+            let times = finished.times.as_ref().expect("a vbl pass reports its times");
+            let (shared, busy) = split_pass(times, seconds);
+            self.costs.vbl_predicted = Some((shared * self.probe_scale, busy.map(|b| b * self.probe_scale)));
             self.report.vbl_seconds += seconds;
             return;
         }
@@ -420,25 +419,53 @@ fn round_choices(est: &AutoSums, r: u64) -> Vec<Choice> {
     steps
 }
 
-/// Whether `vbl` is measured, given what a pass over every needed component costs (`None`:
-/// not known yet).
+/// Whether and where `vbl` is measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Exploration {
     /// Find out what a pass costs first, on a small image.
     Probe,
-    /// Run passes until [`MIN_VBL_PASSES`] are in: they fit in [`EXPLORE_SHARE`] of the
-    /// budget, or a component has no other estimator (`vbl_only_needed`).
-    Measure,
-    /// Leave `vbl` out: its passes would not fit.
+    /// Run passes over these components until [`MIN_VBL_PASSES`] are in.
+    Measure([bool; N]),
+    /// Leave `vbl` out: not even one component's passes would fit.
     Skip,
 }
 
-fn exploration(pass: Option<f64>, vbl_only_needed: bool, limit: Duration) -> Exploration {
-    match pass {
-        _ if vbl_only_needed => Exploration::Measure,
-        None => Exploration::Probe,
-        Some(seconds) if seconds * MIN_VBL_PASSES as f64 <= EXPLORE_SHARE * limit.as_secs_f64() => Exploration::Measure,
-        Some(_) => Exploration::Skip,
+/// Which components `vbl` is measured on, given the probe's prediction of a pass (`None`: not
+/// known yet; else the shared seconds and each component's). Every needed one when a
+/// component has no other estimator (`vbl_only_needed`); otherwise as many as fit
+/// [`MIN_VBL_PASSES`] passes in [`EXPLORE_SHARE`] of the budget, taken by `priority` (the
+/// path tracer's error a component holds) per second of its `vbl` estimator: what `vbl` could
+/// win per second of measuring. A whole pass is often too dear for a short budget where one
+/// component's passes are not (the glossy fog box at 96², 16 s: a pass 0.44 s, four would take
+/// 1.75 of the 1.6 s; its `Lmm`, where `vbl` is far ahead, costs a quarter of that).
+fn exploration(
+    predicted: Option<(f64, [f64; N])>,
+    needed: &[bool; N],
+    vbl_only_needed: bool,
+    priority: &[f64; N],
+    limit: Duration,
+) -> Exploration {
+    if vbl_only_needed {
+        return Exploration::Measure(*needed);
+    }
+    let Some((shared, cost)) = predicted else {
+        return Exploration::Probe;
+    };
+    let mut order: Vec<usize> = (0..N).filter(|&k| needed[k]).collect();
+    let rate = |k: usize| priority[k] / cost[k].max(1e-9);
+    order.sort_by(|&a, &b| rate(b).total_cmp(&rate(a)));
+    let budget = EXPLORE_SHARE * limit.as_secs_f64() / MIN_VBL_PASSES as f64;
+    let (mut mask, mut seconds) = ([false; N], shared);
+    for k in order {
+        if seconds + cost[k] <= budget {
+            mask[k] = true;
+            seconds += cost[k];
+        }
+    }
+    if mask.iter().any(|&m| m) {
+        Exploration::Measure(mask)
+    } else {
+        Exploration::Skip
     }
 }
 
@@ -491,13 +518,20 @@ fn next_choice(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Durati
     // pass: a budget too short to measure `vbl` does not pay for a pass it could not use
     // (fewer than MIN_VBL_PASSES get no weight).
     let vbl_only_needed = (0..N).any(|k| needed[k] && vbl_only[k]);
-    let explore = match exploration(costs.vbl_pass(needed), vbl_only_needed, limit) {
+    // The path tracer's error in each component now: its per-sample variance (the error of
+    // the mean times the samples).
+    let priority: [f64; N] = std::array::from_fn(|k| {
+        let e = &combined.errors[k];
+        (e.pt + e.pt_tail2) * est.pt[k].samples as f64
+    });
+    let explore = match exploration(costs.vbl_predicted, needed, vbl_only_needed, &priority, limit) {
         Exploration::Probe if any_vbl => return Some(Choice::Probe),
-        e => e == Exploration::Measure,
+        Exploration::Measure(mask) => Some(mask),
+        _ => None,
     };
     let vbl_runs = est.vbl.iter().map(|f| f.samples).max().unwrap_or(0);
-    if any_vbl && vbl_runs < MIN_VBL_PASSES && costs.vbl_passes < MIN_VBL_PASSES && explore {
-        return Some(Choice::Vbl(*needed));
+    if let Some(mask) = explore.filter(|_| any_vbl && vbl_runs < MIN_VBL_PASSES && costs.vbl_passes < MIN_VBL_PASSES) {
+        return Some(Choice::Vbl(mask));
     }
     // Error reduction per path-traced sample and per `vbl` pass of each component. A sample
     // of a component alone counts as one of a slice over several: it is as noisy or less
@@ -555,19 +589,53 @@ fn next_choice(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Durati
 mod tests {
     use super::*;
 
-    /// `vbl` is measured only when its passes fit in a tenth of the budget, which a probe
-    /// tells before the first pass; a component only `vbl` serves is measured whatever it
-    /// costs. Catches the old rule (a first pass whatever the budget: at 4 s a 0.4-s pass,
-    /// then never weighed) and a probe that never lets `vbl` in.
+    /// `vbl` is measured only on components whose passes fit in a tenth of the budget, which
+    /// a probe tells before the first pass, taken by the path tracer's error they hold per
+    /// second of `vbl`; a component only `vbl` serves gets every needed one measured whatever
+    /// it costs. Catches the old rule (a first pass whatever the budget: at 4 s a 0.4-s pass,
+    /// then never weighed), a probe that never lets `vbl` in, and the whole-pass rule that
+    /// left `vbl` out where one component's passes fit (made to fail by measuring only whole
+    /// passes: the 16-s case then skips).
     #[test]
-    fn vbl_is_measured_when_its_passes_fit() {
+    fn vbl_is_measured_where_its_passes_fit() {
         let s = Duration::from_secs_f64;
-        assert_eq!(exploration(None, false, s(4.0)), Exploration::Probe);
-        assert_eq!(exploration(None, true, s(4.0)), Exploration::Measure);
-        // Four passes of 0.4 s: 1.6 s, a tenth of 16 s but not of 4 s.
-        assert_eq!(exploration(Some(0.4), false, s(4.0)), Exploration::Skip);
-        assert_eq!(exploration(Some(0.4), false, s(16.0)), Exploration::Measure);
-        assert_eq!(exploration(Some(0.4), true, s(4.0)), Exploration::Measure);
+        let mut needed = [false; N];
+        needed[..5].fill(true);
+        let even = [1.0; N];
+        assert_eq!(exploration(None, &needed, false, &even, s(4.0)), Exploration::Probe);
+        assert_eq!(
+            exploration(None, &needed, true, &even, s(4.0)),
+            Exploration::Measure(needed)
+        );
+        // Five components of 0.08 s and 0.02 s shared: four passes of 0.42 s take 1.68 s, more
+        // than a tenth of 16 s; four of 0.1 s (one component) fit in a tenth of 4 s.
+        let mut cost = [0.0; N];
+        cost[..5].fill(0.08);
+        let pass = Some((0.02, cost));
+        assert_eq!(
+            exploration(pass, &needed, false, &even, s(17.0)),
+            Exploration::Measure(needed)
+        );
+        let mut priority = [0.0; N];
+        priority[..5].copy_from_slice(&[1.0, 2.0, 8.0, 4.0, 1.0]);
+        let only = |ks: &[usize]| Exploration::Measure(std::array::from_fn(|k| ks.contains(&k)));
+        // 1.6 s: four components fit (0.34 s a pass), the largest errors first (ties in the
+        // components' order).
+        assert_eq!(
+            exploration(pass, &needed, false, &priority, s(16.0)),
+            only(&[0, 1, 2, 3])
+        );
+        assert_eq!(exploration(pass, &needed, false, &priority, s(4.0)), only(&[2]));
+        // Error per second decides: component 2 at 0.2 s ranks below 3; it does not fit beside
+        // it in 0.2 s a pass, and the next one that does is taken.
+        cost[2] = 0.2;
+        let pass = Some((0.02, cost));
+        assert_eq!(exploration(pass, &needed, false, &priority, s(8.0)), only(&[3, 1]));
+        assert_eq!(exploration(pass, &needed, false, &priority, s(2.0)), Exploration::Skip);
+        assert_eq!(
+            exploration(pass, &needed, true, &priority, s(2.0)),
+            Exploration::Measure(needed)
+        );
     }
 
     /// The probe's image is the render's, at most 32 pixels a side.
