@@ -206,3 +206,65 @@ fn all_components_add_up_to_the_path_tracers_image() {
     eprintln!("beauty: many-light {a:.5}, path tracer {b:.5}, relative difference {rel:.4}");
     assert!(rel < 0.03, "beauty: many-light {a} vs path tracer {b}");
 }
+
+/// The beam map holds the beams cut into pieces (a long beam's box would hold mostly empty
+/// space); its radiance must be the sum over whole beams, each camera segment's chord through
+/// a beam's tube being the union of its chords through the pieces' tubes. Checked per camera
+/// segment against a sum over every beam written here, with a large radius (r = 0.15, so
+/// that many chords cross a cut) in nearly clear air (σt = 1e-3: the chord's midpoint, where
+/// the two transmittances are taken, moves where a chord is cut, which changes them by less
+/// than σt times the chord, < 1e-3). Catches a piece lost, counted twice or placed on the
+/// wrong stretch of its beam (made to fail by dropping each beam's last piece: the first
+/// segment came out 8 % low). Measured: 2040 beams, 91 710 chords, worst 1.1e-6.
+#[test]
+fn the_beam_maps_pieces_add_up_to_whole_beams() {
+    let mut scene = caustic_box(24, 24, 1.0);
+    scene.media[0].sigma_s = Rgb::splat(1e-3);
+    scene.media[0].sigma_a = Rgb::ZERO;
+    let ts = TraceScene::new(scene);
+    let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), 24, 24, 1, 0);
+    let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 4096, 1, 0);
+    let r2 = 0.15f32 * 0.15;
+    let map = BeamMap::build(&lights.photon_beams, r2);
+    let m = &ts.scene.media[0];
+    let hg = beamlight_scene::phase::HenyeyGreenstein { g: m.g };
+    let beams: Vec<_> = lights
+        .photon_beams
+        .iter()
+        .filter(|b| b.flags & beamlight_trace::light_paths::AFTER_SPECULAR != 0 && b.length > 0.0)
+        .collect();
+    assert!(beams.len() > 100, "too few beams to test: {}", beams.len());
+    let (mut chords, mut worst) = (0usize, 0f64);
+    for (i, seg) in gather.media_segments.iter().enumerate() {
+        let (oc, dc) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+        let mut whole = Rgb::ZERO;
+        for b in &beams {
+            let (ob, db) = (Vec3::from(b.origin), Vec3::from(b.dir));
+            let Some((t0, t1)) = beamlight_trace::caustics::chord(oc, dc, seg.length, ob, db, b.length, r2) else {
+                continue;
+            };
+            chords += 1;
+            let t = 0.5 * (t0 + t1);
+            let u = (oc + dc * t - ob).dot(db).clamp(0.0, b.length);
+            let tr = (-m.sigma_t() * (u + t)).map(f32::exp);
+            whole += Rgb::from(b.power) * tr * m.sigma_s * (hg.eval(-dc, -db) * (t1 - t0));
+        }
+        let whole = Rgb::from(seg.throughput) * whole / (std::f32::consts::PI * r2);
+        let mut s = Sampler::new(2, 0, i as u32);
+        let pieces = map.radiance(&ts, seg, &mut s);
+        let (a, b) = (pieces.x as f64, whole.x as f64);
+        let rel = (a - b).abs() / b.abs().max(1e-20);
+        if b > 0.0 || a > 0.0 {
+            worst = worst.max(rel);
+        }
+        assert!(
+            rel < 1e-3 || (a == 0.0 && b == 0.0),
+            "segment {i}: pieces {pieces} against whole beams {whole}"
+        );
+    }
+    eprintln!(
+        "{} beams, {chords} chords, worst relative difference {worst:.2e}",
+        beams.len()
+    );
+    assert!(chords > 1000, "too few chords to test: {chords}");
+}
