@@ -116,19 +116,30 @@ pub enum MediaDraw {
     Auto,
     /// Always down the tree ([`Drawing::Descent`]).
     Descent,
-    /// Always flat ([`Drawing::Flat`]).
+    /// Always flat ([`Drawing::Flat`]), up to [`FLAT_EXPLICIT_MAX_MASSES`].
     Flat,
 }
 
 impl MediaDraw {
-    /// How a pass with `vbls` VBLs and `segments` camera media segments draws them.
-    pub fn drawing(self, vbls: usize, segments: usize) -> Drawing {
-        let masses = segments.div_ceil(FLAT_GROUP) * vbls;
-        match self {
+    /// How a pass with `vbls` VBLs and `segments` camera media segments draws them; an error
+    /// when a flat draw asked for would hold more than [`FLAT_EXPLICIT_MAX_MASSES`] masses.
+    pub fn drawing(self, vbls: usize, segments: usize) -> Result<Drawing, String> {
+        let groups = segments.div_ceil(FLAT_GROUP);
+        let masses = groups.saturating_mul(vbls);
+        Ok(match self {
             MediaDraw::Auto if vbls <= FLAT_MAX_VBLS && masses <= FLAT_MAX_MASSES => Drawing::Flat,
             MediaDraw::Auto | MediaDraw::Descent => Drawing::Descent,
-            MediaDraw::Flat => Drawing::Flat,
-        }
+            MediaDraw::Flat if masses <= FLAT_EXPLICIT_MAX_MASSES => Drawing::Flat,
+            MediaDraw::Flat => {
+                return Err(format!(
+                    "--media-light-draw flat: this pass would weigh {masses} masses ({groups} groups of \
+                     {FLAT_GROUP} camera media segments × {vbls} VBLs, {:.1} GB), more than the \
+                     {FLAT_EXPLICIT_MAX_MASSES} allowed; use --media-light-draw auto (flat while a \
+                     pass has at most {FLAT_MAX_MASSES}), fewer --light-paths or a smaller image",
+                    masses as f64 * 8.0 / 1e9
+                ));
+            }
+        })
     }
 
     pub fn name(self) -> &'static str {
@@ -157,6 +168,11 @@ pub const FLAT_MAX_VBLS: usize = 4096;
 /// pixel) that allows some 580 VBLs, over twice the default 64 light paths' (about 220 in the
 /// glossy fog box).
 pub const FLAT_MAX_MASSES: usize = 1 << 25;
+
+/// The most masses a pass may weigh when the flat draw is asked for (`--media-light-draw
+/// flat`): 2²⁸, 2 GB on the CPU. Beyond it a pass is refused with an error naming the flag,
+/// rather than growing memory with the light paths and the image until the machine swaps.
+pub const FLAT_EXPLICIT_MAX_MASSES: usize = 1 << 28;
 
 /// Lights a gather record draws per component by default (`--light-samples`; more draws with
 /// cheaper pairs did not pay everywhere, see [`beamlight_trace::vbl::DEFAULT_DIRECTIONS`]).
@@ -472,7 +488,10 @@ pub fn start_pass(
     let beams_on = settings.lights == VirtualLights::Beams;
     // With light selection, each record draws `k` lights per component from the pass's trees.
     let r = r2.max(0.0).sqrt();
-    let media_drawing = settings.media_drawing.drawing(lights.vrls.len(), segments.len());
+    let media_drawing = settings
+        .media_drawing
+        .drawing(lights.vrls.len(), segments.len())
+        .map_err(GpuError::Inputs)?;
     let selection = match (beams_on, settings.light_samples) {
         (true, Some(k)) => Some(Selection {
             k: k.max(1),
@@ -651,18 +670,26 @@ mod tests {
     use super::*;
 
     /// `auto` draws flat within both caps and descends beyond either; the explicit settings
-    /// ignore them.
+    /// ignore them, but a flat draw asked for beyond [`FLAT_EXPLICIT_MAX_MASSES`] is an error
+    /// naming the flag (made to fail by letting `Flat` through: the last check).
     #[test]
     fn auto_media_draw_keeps_to_its_caps() {
         let (vbls, segments) = (220, 96 * 96);
-        assert_eq!(MediaDraw::Auto.drawing(vbls, segments), Drawing::Flat);
-        assert_eq!(MediaDraw::Auto.drawing(FLAT_MAX_VBLS, 16), Drawing::Flat);
-        assert_eq!(MediaDraw::Auto.drawing(FLAT_MAX_VBLS + 1, 16), Drawing::Descent);
+        assert_eq!(MediaDraw::Auto.drawing(vbls, segments), Ok(Drawing::Flat));
+        assert_eq!(MediaDraw::Auto.drawing(FLAT_MAX_VBLS, 16), Ok(Drawing::Flat));
+        assert_eq!(MediaDraw::Auto.drawing(FLAT_MAX_VBLS + 1, 16), Ok(Drawing::Descent));
         // 1280×720 with one segment a pixel: 57 600 groups.
         let hd = 1280 * 720;
-        assert_eq!(MediaDraw::Auto.drawing(580, hd), Drawing::Flat);
-        assert_eq!(MediaDraw::Auto.drawing(600, hd), Drawing::Descent);
-        assert_eq!(MediaDraw::Flat.drawing(FLAT_MAX_VBLS + 1, hd), Drawing::Flat);
-        assert_eq!(MediaDraw::Descent.drawing(vbls, segments), Drawing::Descent);
+        assert_eq!(MediaDraw::Auto.drawing(580, hd), Ok(Drawing::Flat));
+        assert_eq!(MediaDraw::Auto.drawing(600, hd), Ok(Drawing::Descent));
+        assert_eq!(MediaDraw::Flat.drawing(FLAT_MAX_VBLS + 1, hd), Ok(Drawing::Flat));
+        assert_eq!(MediaDraw::Descent.drawing(vbls, segments), Ok(Drawing::Descent));
+        assert_eq!(MediaDraw::Descent.drawing(1 << 20, 4 * hd), Ok(Drawing::Descent));
+        // 57 600 groups × 4 661 VBLs: 2²⁸ and a few.
+        let refused = MediaDraw::Flat.drawing(4661, hd).unwrap_err();
+        assert!(
+            refused.contains("--media-light-draw flat") && refused.contains("268473600"),
+            "{refused}"
+        );
     }
 }
