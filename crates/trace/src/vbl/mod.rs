@@ -742,6 +742,29 @@ mod tests {
         (mean, ((sum2 / k as f64 - mean * mean) / k as f64).sqrt())
     }
 
+    /// Volume photons of density 1 filling space around a medium receiver at the origin
+    /// (`Lmm`'s geometry), isotropic phase functions at both ends; `exact` by the caller.
+    fn lmm(name: &'static str, exact: f64) -> BlurCase {
+        use std::f32::consts::{FRAC_1_PI, PI};
+        BlurCase {
+            name,
+            exact,
+            photon: |u, _| {
+                let d = -(1.0 - u.x).ln();
+                let w = sampling::uniform_sphere(Vec2::new(u.y, (u.x * 7919.0).fract()));
+                (w * d, 4.0 * PI * d * d * d.exp())
+            },
+            h: 0.0,
+            radii: &[0.35, 1.0],
+            receiver: Vec3::ZERO,
+            plane: None,
+            sheet: None,
+            fallback: Vec3::Z,
+            wall: None,
+            f: |_| 0.0625 * FRAC_1_PI * FRAC_1_PI,
+        }
+    }
+
     /// Photons of density 1 on the wall x = 0 above the floor, seen from a Lambert floor point
     /// `h` from the wall (`Lss` near a corner).
     fn lss(h: f32, radii: &'static [f32]) -> BlurCase {
@@ -809,24 +832,8 @@ mod tests {
                 wall: None,
                 f: |w| w.z.max(0.0) * FRAC_1_PI * 0.25 * FRAC_1_PI,
             },
-            BlurCase {
-                // Photons everywhere, isotropic phase functions at both ends: 1/4π.
-                name: "volume photons, medium receiver (Lmm)",
-                exact: 0.25 / std::f64::consts::PI,
-                photon: |u, _| {
-                    let d = -(1.0 - u.x).ln();
-                    let w = sampling::uniform_sphere(Vec2::new(u.y, (u.x * 7919.0).fract()));
-                    (w * d, 4.0 * PI * d * d * d.exp())
-                },
-                h: 0.0,
-                radii: &[0.35, 1.0],
-                receiver: Vec3::ZERO,
-                plane: None,
-                sheet: None,
-                fallback: Vec3::Z,
-                wall: None,
-                f: |_| 0.0625 * FRAC_1_PI * FRAC_1_PI,
-            },
+            // Photons everywhere, isotropic phase functions at both ends: 1/4π.
+            lmm("volume photons, medium receiver (Lmm)", 0.25 / std::f64::consts::PI),
             BlurCase {
                 // Photons of density 1 filling z > 0 above a wall at z = 0 (the medium ends
                 // there), a medium point LIFT above it whose camera segment ends on that wall,
@@ -952,23 +959,7 @@ mod tests {
                 let (mu, t) = (2.0 * a - 1.0, -(1.0 - b).ln());
                 sigma(Vec3::new(0.0, 0.0, (t * mu) as f32))
             });
-        let case = BlurCase {
-            name: "volume photons across a density step, medium receiver (Lmm)",
-            exact,
-            photon: |u, _| {
-                let d = -(1.0 - u.x).ln();
-                let w = sampling::uniform_sphere(Vec2::new(u.y, (u.x * 7919.0).fract()));
-                (w * d, 4.0 * std::f32::consts::PI * d * d * d.exp())
-            },
-            h: 0.0,
-            radii: &[0.35, 1.0],
-            receiver: Vec3::ZERO,
-            plane: None,
-            sheet: None,
-            fallback: Vec3::Z,
-            wall: None,
-            f: |_| 0.0625 * std::f32::consts::FRAC_1_PI * std::f32::consts::FRAC_1_PI,
-        };
+        let case = lmm("volume photons across a density step, medium receiver (Lmm)", exact);
         for &r in case.radii {
             let (ours, se) = blur_estimate_in(&case, r, 1.0, true, Scatter::AtCollection(&medium));
             let (centre, se_centre) = blur_estimate_in(&case, r, 1.0, true, Scatter::AtCentre(&medium));
