@@ -206,9 +206,15 @@ struct Collection {
     has_wall: bool,
     wall_point: vec3<f32>,
     wall_normal: vec3<f32>,
-    // `Collection::medium`: a VBL point's medium, whose density at the collection point scales
-    // the light (1 in a homogeneous medium); NO_MEDIUM for a VPL's photon.
+    // `Collection::medium`: a VBL point's medium when it has a density grid, whose density at
+    // the collection point scales the light (`grid_medium`); NO_MEDIUM otherwise.
     medium: u32,
+}
+
+// `mi` when medium `m` has a density grid, else NO_MEDIUM: what `Collection.medium` takes, so
+// that homogeneous media skip the per-direction lookup (as `Collection::medium` on the CPU).
+fn grid_medium(m: Medium, mi: u32) -> u32 {
+    return select(NO_MEDIUM, mi, m.grid_res.x != 0u);
 }
 
 // `Wall::near`: `col` with the wall camera segment `seg` ends on, if its receiver lies within

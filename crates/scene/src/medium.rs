@@ -45,13 +45,14 @@ impl Medium {
     /// along the axes: a cheap stand-in for the largest density within a sphere of radius `r`
     /// about `p`, for shaping the sampling of VSL centres whose light scatters anywhere in it.
     pub fn density_within(&self, p: Vec3, r: f32) -> f32 {
-        let Some(g) = self.density.as_ref() else {
+        if self.density.is_none() {
             return 1.0;
-        };
-        let at = |q: Vec3| g.density(q.clamp(g.lo, g.hi));
-        let mut best = at(p);
+        }
+        let mut best = self.density_near(p);
         for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
-            best = best.max(at(p + axis * r)).max(at(p - axis * r));
+            best = best
+                .max(self.density_near(p + axis * r))
+                .max(self.density_near(p - axis * r));
         }
         best
     }

@@ -508,8 +508,7 @@ pub fn vsl_to_surface(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use beamlight_scene::medium::Medium;
-    use beamlight_scene::{bsdf::Bsdf, frame::Frame, sampling};
+    use beamlight_scene::{bsdf::Bsdf, frame::Frame, medium::Medium, sampling};
     use glam::Vec2;
 
     /// Why the estimators may return 0 when a position sampler's density is not positive and
