@@ -109,7 +109,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
                 beamlight_render::auto::MIN_VBL_PASSES,
                 if probed {
                     format!(
-                        ", and with --time only on the components whose {} passes fit in a tenth of the budget (a pass's cost per component measured first on a small image)",
+                        ", and with --time only on the components a probe (three vbl passes on a small image: their cost and noise against pt's first samples) does not find losing, as far as their {} passes fit in a tenth of the budget (four tenths where vbl promises to be much faster)",
                         beamlight_render::auto::MIN_VBL_PASSES
                     )
                 } else {

@@ -53,6 +53,7 @@
 //! merge combines them again.
 pub use crate::combine::{AutoReport, AutoSums, MIN_VBL_PASSES, PassMeans, vbl_only};
 use crate::{
+    Film,
     combine::Combined,
     many_lights::{self, PassTimes},
     schedule::{Outcome, Remaining, Schedule, Snapshot, Step},
@@ -64,8 +65,13 @@ use std::time::{Duration, Instant};
 
 /// How often the combined films are refreshed for progress with a time budget.
 const REFRESH: Duration = Duration::from_millis(500);
-/// The largest share of a time budget spent measuring `vbl` before the schedule weighs it.
+/// The largest share of a time budget spent measuring `vbl` before the schedule weighs it,
+/// and the largest for components the probe finds [`PROMISING`].
 const EXPLORE_SHARE: f64 = 0.1;
+const EXPLORE_CAP: f64 = 0.4;
+/// A probe's promise (`Probed::of`) at which `vbl` likely wins a component although the
+/// probe flatters it (by 3–5×, measured).
+const PROMISING: f64 = 4.0;
 /// Path-traced samples per pixel per round with a pass budget.
 pub const PT_SPP_PER_ROUND: u32 = 16;
 /// The seed of `auto`'s `vbl` passes in a render with `seed`: derived with a salt, so that
@@ -101,6 +107,8 @@ struct Costs {
     /// A `vbl` pass of the render as the probe predicts it: the shared seconds and each
     /// component's, the probe's scaled by the pixels (a pass's cost is mostly its gathers).
     vbl_predicted: Option<(f64, [f64; N])>,
+    /// The probe's passes so far, each as its prediction of a render's pass.
+    probes: Vec<(f64, [f64; N])>,
 }
 
 impl Costs {
@@ -128,6 +136,20 @@ impl Costs {
 
     fn component(&self, k: usize) -> f64 {
         self.vbl_component[k] / self.vbl_component_passes[k].max(1) as f64
+    }
+
+    /// A probe pass's times, `scale` the render's pixels per pixel of the probe. The
+    /// prediction is the probes' mean, without the first once there are more: it pays for
+    /// warming up (the first light tree, memory first touched).
+    fn add_probe(&mut self, times: &PassTimes, wall: f64, scale: f64) {
+        let (shared, busy) = split_pass(times, wall);
+        self.probes.push((shared * scale, busy.map(|b| b * scale)));
+        let later = &self.probes[(self.probes.len() > 1) as usize..];
+        let n = later.len() as f64;
+        self.vbl_predicted = Some((
+            later.iter().map(|p| p.0).sum::<f64>() / n,
+            std::array::from_fn(|k| later.iter().map(|p| p.1[k]).sum::<f64>() / n),
+        ));
     }
 
     fn add_vbl(&mut self, times: &PassTimes, wall: f64, computed: &[bool; N]) {
@@ -174,6 +196,12 @@ pub struct Auto {
     fixed: bool,
     /// The render's pixels per pixel of the probe's image.
     probe_scale: f64,
+    /// The probe's passes per component (thrown away as images; their variances say how
+    /// noisy a `vbl` pass of each component is), and the probe passes planned.
+    probe: Vec<Film>,
+    probes_planned: u64,
+    /// The probe's verdict, once in.
+    probed: Option<Probed>,
     /// Units planned, and units of the checkpoint continued (the combined films count both).
     planned: u64,
     units: u64,
@@ -185,12 +213,21 @@ pub const PT: usize = 0;
 pub const VBL: usize = 1;
 pub const PROBE: usize = 2;
 
-/// The probe's image: the render's, at most this many pixels wide and high.
+/// The probe's image: the render's, scaled to at most this many pixels on its longer side.
 const PROBE_SIDE: u32 = 32;
+/// Probe passes before the schedule decides where to measure `vbl`: three give each pixel of
+/// the probe two degrees of freedom for its variance, pooled over a thousand pixels.
+const PROBE_PASSES: u64 = 3;
 
-/// The image size of `auto`'s probe of a `vbl` pass's cost for a render of `size`.
+/// The image size of `auto`'s probe of a `vbl` pass for a render of `size`: the same view
+/// (the camera's field of view is vertical, its width follows the aspect ratio), smaller.
 pub fn probe_size((w, h): (u32, u32)) -> (u32, u32) {
-    (w.min(PROBE_SIDE), h.min(PROBE_SIDE))
+    let long = w.max(h);
+    if long <= PROBE_SIDE {
+        return (w, h);
+    }
+    let scale = |x: u32| ((x as u64 * PROBE_SIDE as u64 + long as u64 / 2) / long as u64).max(1) as u32;
+    (scale(w), scale(h))
 }
 
 impl Auto {
@@ -231,6 +268,12 @@ impl Auto {
                 let (pw, ph) = probe_size((w, h));
                 (w as f64 * h as f64) / (pw as f64 * ph as f64)
             },
+            probe: {
+                let (pw, ph) = probe_size((w, h));
+                (0..N).map(|_| Film::new(pw, ph)).collect()
+            },
+            probes_planned: 0,
+            probed: None,
             planned: 0,
             units: 0,
             units_before: resume.map_or(0, |(_, units)| units),
@@ -258,12 +301,15 @@ impl Auto {
                     components,
                 }]
             }
-            // The pass `vbl` would run next: its radius, its light paths.
-            Choice::Probe => vec![Step {
-                source: PROBE,
-                pass: self.est.vbl_next as u32,
-                components: self.est.needed,
-            }],
+            // The passes `vbl` would run next: their radii, their light paths.
+            Choice::Probe => {
+                self.probes_planned += 1;
+                vec![Step {
+                    source: PROBE,
+                    pass: (self.est.vbl_next + self.probes_planned - 1) as u32,
+                    components: self.est.needed,
+                }]
+            }
         }
     }
 }
@@ -285,7 +331,17 @@ impl Schedule for Auto {
                     });
                 let limit = Duration::from_secs_f64(limit);
                 let first = self.planned == 0;
-                match next_choice(&self.est, &self.costs, &self.combined, limit, left) {
+                if self.probed.is_none() {
+                    self.probed = Probed::of(&self.est, &self.probe, &self.costs);
+                }
+                match next_choice(
+                    &self.est,
+                    self.probed.as_ref(),
+                    &self.costs,
+                    &self.combined,
+                    limit,
+                    left,
+                ) {
                     Some(choice) if first || choice_seconds(choice, &self.costs) <= left => vec![choice],
                     // What is left fits only a shorter `pt` slice, if anything; with no
                     // measured cost (nothing to render: a scene without light), one sample.
@@ -312,10 +368,12 @@ impl Schedule for Auto {
         let out = &finished.out.components;
         if step.source == PROBE {
             // Its image is thrown away (another image size, and the render's `vbl` passes are
-            // what the combination counts).
+            // what the combination counts); its spread is kept.
             let times = finished.times.as_ref().expect("a vbl pass reports its times");
-            let (shared, busy) = split_pass(times, seconds);
-            self.costs.vbl_predicted = Some((shared * self.probe_scale, busy.map(|b| b * self.probe_scale)));
+            self.costs.add_probe(times, seconds, self.probe_scale);
+            for k in (0..N).filter(|&k| mask[k]) {
+                self.probe[k].add_pass(&out[k]);
+            }
             self.report.vbl_seconds += seconds;
             return;
         }
@@ -430,36 +488,111 @@ enum Exploration {
     Skip,
 }
 
-/// Which components `vbl` is measured on, given the probe's prediction of a pass (`None`: not
-/// known yet; else the shared seconds and each component's). Every needed one when a
-/// component has no other estimator (`vbl_only_needed`); otherwise as many as fit
-/// [`MIN_VBL_PASSES`] passes in [`EXPLORE_SHARE`] of the budget, taken by `priority` (the
-/// path tracer's error a component holds) per second of its `vbl` estimator: what `vbl` could
-/// win per second of measuring. A whole pass is often too dear for a short budget where one
-/// component's passes are not (the glossy fog box at 96², 16 s: a pass 0.44 s, four would take
-/// 1.75 of the 1.6 s; its `Lmm`, where `vbl` is far ahead, costs a quarter of that).
-fn exploration(
-    predicted: Option<(f64, [f64; N])>,
-    needed: &[bool; N],
-    vbl_only_needed: bool,
-    priority: &[f64; N],
-    limit: Duration,
-) -> Exploration {
+/// What the probe tells of a `vbl` pass of the render: its predicted seconds (the shared
+/// ones, and each component's) and per component its promise ([`Probed::of`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Probed {
+    shared: f64,
+    cost: [f64; N],
+    promise: [f64; N],
+}
+
+impl Probed {
+    /// The probe's verdict once its passes are in and the path tracer has measured the cost of
+    /// each component alone (`None` before).
+    ///
+    /// A component's promise is how much faster than the path tracer `vbl` would lower its
+    /// error (above 1: faster): the path tracer's variance per sample times its seconds per
+    /// sample of the component alone, over `vbl`'s variance per pass (the probe's) times the
+    /// seconds of a pass of the component (its own and the shared ones, as the probe predicts
+    /// them for the render). Variances are relative, as `compare`'s relMSE, weighed for both by
+    /// the probe's beauty (a render's pixel by the probe's pixel that sees the same) and
+    /// averaged over pixels, so that the probe's smaller image compares. 0 where neither has
+    /// seen light; infinite where only the path tracer has.
+    ///
+    /// It flatters `vbl`: three passes miss its rare bright virtual lights and show none of
+    /// its blur's bias. Measured at 96² and 4 s against the whole renders' errors per second,
+    /// it was 3–5× what `vbl` achieved (buddha: 8–23 where `vbl` was 2.2× faster; the Cornell
+    /// box 0.9–3.9 where it was 3× slower). So a promise below 1 is a safe verdict (even
+    /// flattered, `vbl` loses), a large one only a likely win ([`PROMISING`]).
+    fn of(est: &AutoSums, probe: &[Film], costs: &Costs) -> Option<Probed> {
+        if (costs.probes.len() as u64) < PROBE_PASSES {
+            return None;
+        }
+        let (shared, cost) = costs.vbl_predicted?;
+        let serves = est.pt_serves();
+        let alone = |k: usize| -> [bool; N] { std::array::from_fn(|j| j == k) };
+        let pt_cost: Vec<f64> = (0..N)
+            .map(|k| {
+                if serves[k] {
+                    costs.pt_per_spp(&alone(k))
+                } else {
+                    Some(0.0)
+                }
+            })
+            .collect::<Option<_>>()?;
+        let (pw, ph) = (probe[0].width as usize, probe[0].height as usize);
+        let (w, h) = (est.pt[0].width as usize, est.pt[0].height as usize);
+        let relative: Vec<[f64; 3]> = (0..pw * ph)
+            .map(|j| {
+                std::array::from_fn(|c| {
+                    let b: f64 = (0..N).filter(|&k| est.needed[k]).map(|k| probe[k].entry(j, c).0).sum();
+                    1.0 / (b * b + 0.01)
+                })
+            })
+            .collect();
+        // Mean over pixels and channels of the variance per sample, weighed by the relative
+        // weight of the probe's pixel `at(i)`.
+        let spread = |film: &Film, at: &dyn Fn(usize) -> usize| {
+            let n = film.samples as f64;
+            let pixels = film.width as usize * film.height as usize;
+            let sum: f64 = (0..pixels)
+                .map(|i| (0..3).map(|c| film.entry(i, c).1 * n * relative[at(i)][c]).sum::<f64>())
+                .sum();
+            sum / (3 * pixels.max(1)) as f64
+        };
+        let probe_pixel = |i: usize| (i / w * ph / h) * pw + (i % w) * pw / w;
+        let promise = std::array::from_fn(|k| {
+            if !serves[k] {
+                return 0.0;
+            }
+            let pt = spread(&est.pt[k], &probe_pixel) * pt_cost[k];
+            let vbl = spread(&probe[k], &|j| j) * (shared + cost[k]);
+            let ratio = pt / vbl;
+            if ratio.is_nan() { 0.0 } else { ratio }
+        });
+        Some(Probed { shared, cost, promise })
+    }
+}
+
+/// Which components `vbl` is measured on, given the probe's verdict (`None`: not in yet).
+/// Every needed one when a component has no other estimator (`vbl_only_needed`): the probe is
+/// not needed then. Otherwise none whose promise is below 1, and of the others, by promise,
+/// as many as fit [`MIN_VBL_PASSES`] passes in [`EXPLORE_SHARE`] of the budget, or in
+/// [`EXPLORE_CAP`] of it for those whose promise reaches [`PROMISING`]: their passes are
+/// likely the better use of the time, and cost little if not. A whole pass is often too dear
+/// for a short budget where one component's passes are not (the glossy fog box at 96², 16 s:
+/// a pass 0.44 s, four would take 1.75 of the 1.6 s; its `Lmm`, where `vbl` is far ahead,
+/// costs a quarter of that).
+fn exploration(probed: Option<&Probed>, needed: &[bool; N], vbl_only_needed: bool, limit: Duration) -> Exploration {
     if vbl_only_needed {
         return Exploration::Measure(*needed);
     }
-    let Some((shared, cost)) = predicted else {
+    let Some(p) = probed else {
         return Exploration::Probe;
     };
-    let mut order: Vec<usize> = (0..N).filter(|&k| needed[k]).collect();
-    let rate = |k: usize| priority[k] / cost[k].max(1e-9);
-    order.sort_by(|&a, &b| rate(b).total_cmp(&rate(a)));
-    let budget = EXPLORE_SHARE * limit.as_secs_f64() / MIN_VBL_PASSES as f64;
-    let (mut mask, mut seconds) = ([false; N], shared);
+    let mut order: Vec<usize> = (0..N).filter(|&k| needed[k] && p.promise[k] >= 1.0).collect();
+    order.sort_by(|&a, &b| p.promise[b].total_cmp(&p.promise[a]));
+    let (mut mask, mut seconds) = ([false; N], p.shared);
     for k in order {
-        if seconds + cost[k] <= budget {
+        let share = if p.promise[k] >= PROMISING {
+            EXPLORE_CAP
+        } else {
+            EXPLORE_SHARE
+        };
+        if seconds + p.cost[k] <= share * limit.as_secs_f64() / MIN_VBL_PASSES as f64 {
             mask[k] = true;
-            seconds += cost[k];
+            seconds += p.cost[k];
         }
     }
     if mask.iter().any(|&m| m) {
@@ -480,14 +613,21 @@ fn choice_seconds(choice: Choice, costs: &Costs) -> f64 {
 }
 
 /// The next step with a time budget: first measure both estimators (two `pt` samples of
-/// every component it serves, two of each kind of restricted slice, then
-/// [`MIN_VBL_PASSES`] `vbl` passes over every component, so that each has a variance and a
-/// cost, if they fit: see [`exploration`]), then whichever lowers the modelled error fastest per second: a `pt` slice over all
-/// its components, over the medium-first or the surface-first ones, or over one alone
+/// every component it serves, two of each kind of restricted slice, the probe, then
+/// [`MIN_VBL_PASSES`] `vbl` passes over the components the probe finds worth it, so that each
+/// has a variance and a cost: see [`exploration`]), then whichever lowers the modelled error
+/// fastest per second: a `pt` slice over all its components, over the medium-first or the surface-first ones, or over one alone
 /// (restricted, its samples are cheaper and, in homogeneous media, less noisy:
 /// `pt::PathTracerSettings::components`), or a `vbl` pass over the components worth their
 /// own seconds.
-fn next_choice(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Duration, left: f64) -> Option<Choice> {
+fn next_choice(
+    est: &AutoSums,
+    probed: Option<&Probed>,
+    costs: &Costs,
+    combined: &Combined,
+    limit: Duration,
+    left: f64,
+) -> Option<Choice> {
     let (needed, vbl_only) = (&est.needed, &est.vbl_only);
     let serves = est.pt_serves();
     let slice = (limit.as_secs_f64() / 32.0).clamp(0.05, 1.0).min(left.max(0.0));
@@ -513,18 +653,13 @@ fn next_choice(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Durati
     if let Some(unmeasured) = slices.iter().find(|m| costs.pt_per_spp(m).is_none()) {
         return Some(Choice::Pt(2, *unmeasured));
     }
-    // Measuring `vbl` takes at most a tenth of the budget, unless a component has no other
-    // estimator. What a pass costs is known from a probe on a small image before the first
-    // pass: a budget too short to measure `vbl` does not pay for a pass it could not use
-    // (fewer than MIN_VBL_PASSES get no weight).
+    // Measuring `vbl` takes at most a tenth of the budget (four tenths where the probe finds
+    // it promising; nothing where it finds it losing), unless a component has no other
+    // estimator. The probe runs on a small image before the first pass: a budget too short to
+    // measure `vbl` does not pay for a pass it could not use (fewer than MIN_VBL_PASSES get
+    // no weight).
     let vbl_only_needed = (0..N).any(|k| needed[k] && vbl_only[k]);
-    // The path tracer's error in each component now: its per-sample variance (the error of
-    // the mean times the samples).
-    let priority: [f64; N] = std::array::from_fn(|k| {
-        let e = &combined.errors[k];
-        (e.pt + e.pt_tail2) * est.pt[k].samples as f64
-    });
-    let explore = match exploration(costs.vbl_predicted, needed, vbl_only_needed, &priority, limit) {
+    let explore = match exploration(probed, needed, vbl_only_needed, limit) {
         Exploration::Probe if any_vbl => return Some(Choice::Probe),
         Exploration::Measure(mask) => Some(mask),
         _ => None,
@@ -589,59 +724,127 @@ fn next_choice(est: &AutoSums, costs: &Costs, combined: &Combined, limit: Durati
 mod tests {
     use super::*;
 
-    /// `vbl` is measured only on components whose passes fit in a tenth of the budget, which
-    /// a probe tells before the first pass, taken by the path tracer's error they hold per
-    /// second of `vbl`; a component only `vbl` serves gets every needed one measured whatever
-    /// it costs. Catches the old rule (a first pass whatever the budget: at 4 s a 0.4-s pass,
-    /// then never weighed), a probe that never lets `vbl` in, and the whole-pass rule that
-    /// left `vbl` out where one component's passes fit (made to fail by measuring only whole
-    /// passes: the 16-s case then skips).
+    /// `vbl` is measured where the probe finds it worth it: never on a component whose
+    /// promise is below 1; on others as far as their passes fit in a tenth of the budget, or
+    /// in four tenths for a promise of [`PROMISING`] or more, most promising first; on every
+    /// needed component, without a probe, when one has no other estimator. Catches the old
+    /// rule (a first pass whatever the budget), the whole-pass rule (the 16-s case then skips),
+    /// a promise that is not looked at (component 4 is measured at 17 s; made to fail so) and a
+    /// cap that is not raised for promising components (the last 4-s case then measures
+    /// component 3 instead of 2).
     #[test]
-    fn vbl_is_measured_where_its_passes_fit() {
+    fn vbl_is_measured_where_the_probe_promises() {
         let s = Duration::from_secs_f64;
         let mut needed = [false; N];
         needed[..5].fill(true);
-        let even = [1.0; N];
-        assert_eq!(exploration(None, &needed, false, &even, s(4.0)), Exploration::Probe);
-        assert_eq!(
-            exploration(None, &needed, true, &even, s(4.0)),
-            Exploration::Measure(needed)
-        );
-        // Five components of 0.08 s and 0.02 s shared: four passes of 0.42 s take 1.68 s, more
-        // than a tenth of 16 s; four of 0.1 s (one component) fit in a tenth of 4 s.
+        assert_eq!(exploration(None, &needed, false, s(4.0)), Exploration::Probe);
+        assert_eq!(exploration(None, &needed, true, s(4.0)), Exploration::Measure(needed));
+        // Five components of 0.08 s and 0.02 s shared: four passes of 0.42 s take 1.68 s, a
+        // tenth of 17 s.
         let mut cost = [0.0; N];
         cost[..5].fill(0.08);
-        let pass = Some((0.02, cost));
+        let mut promise = [0.0; N];
+        promise[..5].fill(2.0);
+        let even = Probed {
+            shared: 0.02,
+            cost,
+            promise,
+        };
         assert_eq!(
-            exploration(pass, &needed, false, &even, s(17.0)),
+            exploration(Some(&even), &needed, false, s(17.0)),
             Exploration::Measure(needed)
         );
-        let mut priority = [0.0; N];
-        priority[..5].copy_from_slice(&[1.0, 2.0, 8.0, 4.0, 1.0]);
         let only = |ks: &[usize]| Exploration::Measure(std::array::from_fn(|k| ks.contains(&k)));
-        // 1.6 s: four components fit (0.34 s a pass), the largest errors first (ties in the
-        // components' order).
+        promise[..5].copy_from_slice(&[1.5, 2.0, 8.0, 3.0, 0.5]);
+        let p = Probed {
+            shared: 0.02,
+            cost,
+            promise,
+        };
+        // 17 s: 0.425 s a pass for the components below PROMISING (all five would fit), 1.7 s
+        // for component 2; component 4 loses even as flattered.
+        assert_eq!(exploration(Some(&p), &needed, false, s(17.0)), only(&[0, 1, 2, 3]));
+        // 4 s: 0.1 s a pass, 0.4 s for component 2, which comes first.
+        assert_eq!(exploration(Some(&p), &needed, false, s(4.0)), only(&[2]));
+        // Component 2 at 0.3 s: at 2 s (0.2 s a pass for it, 0.05 s for the others) nothing fits.
+        cost[2] = 0.3;
+        let dear = Probed {
+            shared: 0.02,
+            cost,
+            promise,
+        };
+        assert_eq!(exploration(Some(&dear), &needed, false, s(2.0)), Exploration::Skip);
         assert_eq!(
-            exploration(pass, &needed, false, &priority, s(16.0)),
-            only(&[0, 1, 2, 3])
-        );
-        assert_eq!(exploration(pass, &needed, false, &priority, s(4.0)), only(&[2]));
-        // Error per second decides: component 2 at 0.2 s ranks below 3; it does not fit beside
-        // it in 0.2 s a pass, and the next one that does is taken.
-        cost[2] = 0.2;
-        let pass = Some((0.02, cost));
-        assert_eq!(exploration(pass, &needed, false, &priority, s(8.0)), only(&[3, 1]));
-        assert_eq!(exploration(pass, &needed, false, &priority, s(2.0)), Exploration::Skip);
-        assert_eq!(
-            exploration(pass, &needed, true, &priority, s(2.0)),
+            exploration(Some(&dear), &needed, true, s(2.0)),
             Exploration::Measure(needed)
         );
+        assert_eq!(exploration(Some(&dear), &needed, false, s(4.0)), only(&[2]));
     }
 
-    /// The probe's image is the render's, at most 32 pixels a side.
+    /// The probe's promise from films with known variances: the path tracer's variance per
+    /// sample times its seconds per sample of the component alone, over the probe's variance
+    /// per pass times a pass's seconds, each weighed by the probe's beauty where the pixel
+    /// looks. A 4 × 2 render whose left half has variance ⅔ per sample (right half 0) against a
+    /// 2 × 1 probe whose left pixel is bright and steady (3, 3, 3: weight 1/9.01) and right
+    /// pixel dim and noisy (0, 2, 1: weight 1/1.01, variance 1): (½ · ⅔ / 9.01 · 0.01) / (½ /
+    /// 1.01 · 0.05). Catches a render pixel weighed by the wrong probe pixel (then ⅔ · 0.2),
+    /// variances of the mean for variances per sample (then the sample counts enter), and
+    /// costs left out.
+    #[test]
+    fn the_promise_weighs_both_estimators_alike() {
+        use beamlight_scene::Rgb;
+        let mut needed = [false; N];
+        needed[0] = true;
+        let mut pt = Film::new(4, 2);
+        for value in [0.0f32, 2.0, 1.0, 1.0] {
+            let pass: Vec<Rgb> = (0..8)
+                .map(|i| Rgb::splat(if i % 4 < 2 { value } else { 1.0 }))
+                .collect();
+            pt.add_pass(&pass);
+        }
+        let mut probe: Vec<Film> = (0..N).map(|_| Film::new(2, 1)).collect();
+        for value in [0.0f32, 2.0, 1.0] {
+            probe[0].add_pass(&[Rgb::splat(3.0), Rgb::splat(value)]);
+        }
+        let est = AutoSums {
+            pt: (0..N)
+                .map(|k| if k == 0 { pt.clone() } else { Film::new(4, 2) })
+                .collect(),
+            vbl: (0..N).map(|_| Film::new(4, 2)).collect(),
+            pt_means: Default::default(),
+            vbl_means: Default::default(),
+            needed,
+            vbl_only: [false; N],
+            pt_next: 0,
+            vbl_next: 0,
+        };
+        let mut costs = Costs::default();
+        assert_eq!(Probed::of(&est, &probe, &costs), None);
+        costs.probes = vec![(0.0, [0.0; N]); PROBE_PASSES as usize];
+        costs.vbl_predicted = Some((0.01, std::array::from_fn(|k| if k == 0 { 0.04 } else { 0.0 })));
+        assert_eq!(
+            Probed::of(&est, &probe, &costs),
+            None,
+            "the path tracer's cost is not measured yet"
+        );
+        costs.add_pt(&std::array::from_fn(|k| k == 0), 0.04, 4);
+        let p = Probed::of(&est, &probe, &costs).unwrap();
+        // The pixels' sample variance of (0, 2, 1, 1) is 2/3, of (0, 2, 1) 1.
+        let expected = (0.5 * (2.0 / 3.0) / 9.01 * 0.01) / (0.5 / 1.01 * 0.05);
+        assert!(
+            (p.promise[0] / expected - 1.0).abs() < 1e-9,
+            "{} vs {expected}",
+            p.promise[0]
+        );
+        assert_eq!(p.promise[1..], [0.0; N - 1]);
+    }
+
+    /// The probe's image is the render's, at most 32 pixels a side, with its aspect ratio.
     #[test]
     fn the_probe_is_small() {
-        assert_eq!(probe_size((96, 64)), (32, 32));
+        assert_eq!(probe_size((96, 64)), (32, 21));
+        assert_eq!(probe_size((1280, 720)), (32, 18));
         assert_eq!(probe_size((20, 16)), (20, 16));
+        assert_eq!(probe_size((4000, 10)), (32, 1));
     }
 }
