@@ -522,13 +522,11 @@ impl Probed {
         let (shared, cost) = costs.vbl_predicted?;
         let serves = est.pt_serves();
         let alone = |k: usize| -> [bool; N] { std::array::from_fn(|j| j == k) };
+        // The component alone, or with the others where no such slice was measured.
         let pt_cost: Vec<f64> = (0..N)
-            .map(|k| {
-                if serves[k] {
-                    costs.pt_per_spp(&alone(k))
-                } else {
-                    Some(0.0)
-                }
+            .map(|k| match serves[k] {
+                true => costs.pt_per_spp(&alone(k)).or_else(|| costs.pt_per_spp(&serves)),
+                false => Some(0.0),
             })
             .collect::<Option<_>>()?;
         let (pw, ph) = (probe[0].width as usize, probe[0].height as usize);
