@@ -614,10 +614,10 @@ fn choice_seconds(choice: Choice, costs: &Costs) -> f64 {
 /// every component it serves, two of each kind of restricted slice, the probe, then
 /// [`MIN_VBL_PASSES`] `vbl` passes over the components the probe finds worth it, so that each
 /// has a variance and a cost: see [`exploration`]), then whichever lowers the modelled error
-/// fastest per second: a `pt` slice over all its components, over the medium-first or the surface-first ones, or over one alone
-/// (restricted, its samples are cheaper and, in homogeneous media, less noisy:
-/// `pt::PathTracerSettings::components`), or a `vbl` pass over the components worth their
-/// own seconds.
+/// fastest per second: a `pt` slice over all its components, over the medium-first or the
+/// surface-first ones, or over one alone (restricted, its samples are cheaper and, in
+/// homogeneous media, less noisy: `pt::PathTracerSettings::components`), or a `vbl` pass over
+/// the components worth their own seconds.
 fn next_choice(
     est: &AutoSums,
     probed: Option<&Probed>,
@@ -726,7 +726,7 @@ mod tests {
     /// promise is below 1; on others as far as their passes fit in a tenth of the budget, or
     /// in four tenths for a promise of [`PROMISING`] or more, most promising first; on every
     /// needed component, without a probe, when one has no other estimator. Catches the old
-    /// rule (a first pass whatever the budget), the whole-pass rule (the 16-s case then skips),
+    /// rule (a first pass whatever the budget), the whole-pass rule (the 4-s cases then skip),
     /// a promise that is not looked at (component 4 is measured at 17 s; made to fail so) and a
     /// cap that is not raised for promising components (the last 4-s case then measures
     /// component 3 instead of 2).
