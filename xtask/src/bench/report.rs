@@ -86,6 +86,9 @@ pub(super) fn write_csv(path: &Path, rows: &[Row], reference: &reference::Refere
     std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
 }
 
+/// A render's relMSE below this many times the reference's own is marked as at the floor.
+const FLOOR_MARGIN: f64 = 2.0;
+
 pub(super) fn scene_summary(
     out: &mut String,
     headline: &mut Vec<String>,
@@ -182,12 +185,25 @@ pub(super) fn scene_summary(
     out.push('\n');
     out.push_str(&"|---".repeat(budgets.len() + 1));
     out.push_str("|\n");
+    // An error against a reference adds the reference's own: one within twice of it says
+    // more about the reference than about the render.
+    let at_floor = |e: f64| e < FLOOR_MARGIN * reference.est_rel_mse;
+    let mut marked = false;
     for (k, pts) in curves {
         let _ = write!(out, "| {} |", k.label());
         for p in pts {
-            let _ = write!(out, " {:.2e} ({:.1} s, {:.0}) |", p.rel_mse, p.wall, p.passes);
+            let mark = if at_floor(p.rel_mse) { " ‡" } else { "" };
+            marked |= at_floor(p.rel_mse);
+            let _ = write!(out, " {:.2e}{mark} ({:.1} s, {:.0}) |", p.rel_mse, p.wall, p.passes);
         }
         out.push('\n');
+    }
+    if marked {
+        let _ = writeln!(
+            out,
+            "\n‡ below {FLOOR_MARGIN} × the reference's own relMSE ({:.2e}): mostly the reference's error, so such a cell does not rank the methods.",
+            reference.est_rel_mse
+        );
     }
     // Time to target.
     let pt = curves
@@ -269,7 +285,8 @@ pub(super) fn scene_summary(
             .filter_map(|i| {
                 let auto = best_at(&|k| k.method == "auto", i)?;
                 let others = best_at(&|k| k.method == "pt" || k.method == "vbl", i)?;
-                Some(format!("{:.0} s {:.2}", budgets[i], auto / others))
+                let mark = if at_floor(auto) || at_floor(others) { " ‡" } else { "" };
+                Some(format!("{:.0} s {:.2}{mark}", budgets[i], auto / others))
             })
             .collect();
         if !ratios.is_empty() {
