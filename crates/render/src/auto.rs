@@ -194,8 +194,6 @@ pub struct Auto {
     last_combined: Instant,
     /// A pass budget (a fixed schedule) rather than a time one.
     fixed: bool,
-    /// The render's pixels per pixel of the probe's image.
-    probe_scale: f64,
     /// The probe's passes per component (thrown away as images; their variances say how
     /// noisy a `vbl` pass of each component is), and the probe passes planned.
     probe: Vec<Film>,
@@ -264,10 +262,6 @@ impl Auto {
             combined: Combined::new(w, h),
             last_combined: Instant::now(),
             fixed,
-            probe_scale: {
-                let (pw, ph) = probe_size((w, h));
-                (w as f64 * h as f64) / (pw as f64 * ph as f64)
-            },
             probe: {
                 let (pw, ph) = probe_size((w, h));
                 (0..N).map(|_| Film::new(pw, ph)).collect()
@@ -370,7 +364,10 @@ impl Schedule for Auto {
             // Its image is thrown away (another image size, and the render's `vbl` passes are
             // what the combination counts); its spread is kept.
             let times = finished.times.as_ref().expect("a vbl pass reports its times");
-            self.costs.add_probe(times, seconds, self.probe_scale);
+            // The render's pixels per pixel of the probe's image.
+            let pixels = |f: &Film| f.width as f64 * f.height as f64;
+            let scale = pixels(&self.est.pt[0]) / pixels(&self.probe[0]);
+            self.costs.add_probe(times, seconds, scale);
             for k in (0..N).filter(|&k| mask[k]) {
                 self.probe[k].add_pass(&out[k]);
             }
@@ -581,18 +578,14 @@ fn exploration(probed: Option<&Probed>, needed: &[bool; N], vbl_only_needed: boo
     };
     let mut order: Vec<usize> = (0..N).filter(|&k| needed[k] && p.promise[k] >= 1.0).collect();
     order.sort_by(|&a, &b| p.promise[b].total_cmp(&p.promise[a]));
-    let (mut mask, mut seconds) = ([false; N], p.shared);
-    for k in order {
+    let mask = fill(&order, p.shared, &p.cost, |k| {
         let share = if p.promise[k] >= PROMISING {
             EXPLORE_CAP
         } else {
             EXPLORE_SHARE
         };
-        if seconds + p.cost[k] <= share * limit.as_secs_f64() / MIN_VBL_PASSES as f64 {
-            mask[k] = true;
-            seconds += p.cost[k];
-        }
-    }
+        share * limit.as_secs_f64() / MIN_VBL_PASSES as f64
+    });
     if mask.iter().any(|&m| m) {
         Exploration::Measure(mask)
     } else {
@@ -731,14 +724,21 @@ fn within(mask: [bool; N], gain: &[f64; N], shared: f64, cost: &[f64; N], left: 
     let mut order: Vec<usize> = (0..N).filter(|&k| mask[k]).collect();
     let rate = |k: usize| gain[k] / cost[k].max(1e-9);
     order.sort_by(|&a, &b| rate(b).total_cmp(&rate(a)));
-    let (mut fitted, mut seconds) = ([false; N], shared);
-    for k in order {
-        if seconds + cost[k] <= left {
-            fitted[k] = true;
+    fill(&order, shared, cost, |_| left)
+}
+
+/// The components of one `vbl` pass, taken in `order` as long as the pass's seconds (`shared`
+/// and each taken component's `cost`) stay within `limit` of the component being added; one
+/// that does not fit is passed over for the next.
+fn fill(order: &[usize], shared: f64, cost: &[f64; N], limit: impl Fn(usize) -> f64) -> [bool; N] {
+    let (mut taken, mut seconds) = ([false; N], shared);
+    for &k in order {
+        if seconds + cost[k] <= limit(k) {
+            taken[k] = true;
             seconds += cost[k];
         }
     }
-    fitted
+    taken
 }
 
 #[cfg(test)]
