@@ -113,7 +113,8 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = with_end_wall(Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0), grid_medium(mv, vrl.medium)), seg);
+    centre_walls = walls_around(y, r);
+    let col = Collection(x, false, y, false, vec3<f32>(0.0), r, vec3<f32>(0.0), tr, grid_medium(mv, vrl.medium));
     let l_vsl = integrate_cone(cone, params.directions, lobe, phase_x, phase_y, col, rnd);
     return seg.throughput * vrl.power * sigma_y * t_vrl * sigma_x * t_cam * l_vsl / (pdf_u * pdf_t);
 }

@@ -44,7 +44,8 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), tr, false, vec3<f32>(0.0), vec3<f32>(0.0), grid_medium(m, vrl.medium));
+    centre_walls = walls_around(y, sqrt(r2));
+    let col = Collection(p, true, y, false, rx.n, sqrt(r2), vec3<f32>(0.0), tr, grid_medium(m, vrl.medium));
     let l_vsl = integrate_cone(cone, params.directions, lobe, rx, phase, col, rnd);
     return sp.throughput * vrl.power * sigma_s * t_vrl * l_vsl / pdf;
 }

@@ -7,7 +7,7 @@
 // point by a piecewise-linear PDF in the angle about the VPL, then the VSL's cone integrated
 // numerically.
 
-fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<function, Sampler>) -> vec3<f32> {
+fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, walls: Walls, s: ptr<function, Sampler>) -> vec3<f32> {
     let m = media[seg.medium];
     if !gathers_in_medium(m.g) {
         return vec3<f32>(0.0);
@@ -45,7 +45,8 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, tr, false, vec3<f32>(0.0), vec3<f32>(0.0), NO_MEDIUM);
+    centre_walls = walls;
+    let col = Collection(x, false, q, true, vec3<f32>(0.0), sqrt(r2), light.n, tr, NO_MEDIUM);
     let l_vsl = integrate_cone(cone, params.directions, lobe, light, phase, col, rnd);
     return seg.throughput * sigma_s * t_cam * vpl.power * l_vsl / pdf;
 }
@@ -80,5 +81,5 @@ fn light_tree_of(r: GatherRecord) -> vec2<u32> {
 }
 
 fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {
-    return vsl_to_media(r.seg, vpls[light], vpl_bsdfs[light], s);
+    return vsl_to_media(r.seg, vpls[light], vpl_bsdfs[light], vpl_walls[light], s);
 }

@@ -4,7 +4,7 @@
 // Lss with virtual spherical lights: every VPL, inflated to radius R, against one shading
 // point, the twin of `beamlight_trace::vbl::vsl_to_surface` (Hašan et al.'s VSLs).
 
-fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<function, Sampler>) -> vec3<f32> {
+fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, walls: Walls, s: ptr<function, Sampler>) -> vec3<f32> {
     if f_vpl.kind == BSDF_NONE {
         return vec3<f32>(0.0);
     }
@@ -24,7 +24,8 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, s
     if is_black(tr) {
         return vec3<f32>(0.0);
     }
-    let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, tr, false, vec3<f32>(0.0), vec3<f32>(0.0), NO_MEDIUM);
+    centre_walls = walls;
+    let col = Collection(sp.pos, true, vpl.pos, true, rx.n, sqrt(r2), light.n, tr, NO_MEDIUM);
     let l_vsl = integrate_cone(cone, params.directions, lobe, rx, light, col, rnd);
     return sp.throughput * vpl.power * l_vsl;
 }
@@ -39,5 +40,5 @@ fn light_tree_of(r: GatherRecord) -> vec2<u32> {
 }
 
 fn light_contribution(r: GatherRecord, light: u32, s: ptr<function, Sampler>) -> vec3<f32> {
-    return vsl_to_surface(r.sp, r.rx, vpls[light], vpl_bsdfs[light], s);
+    return vsl_to_surface(r.sp, r.rx, vpls[light], vpl_bsdfs[light], vpl_walls[light], s);
 }

@@ -335,8 +335,6 @@ fn degenerate_virtual_light_geometry_stays_finite() {
         medium: 0,
         throughput: [1.0; 3],
         pixel: 0,
-        end_normal: [0.0; 3],
-        _pad: 0,
     };
     let vrl_at = |o: Vec3, d: Vec3, len: f32| LightSegment {
         origin: o.into(),
@@ -403,10 +401,12 @@ fn degenerate_virtual_light_geometry_stays_finite() {
     };
     let backend = GpuBackend::open(&ts.scene).unwrap();
     for r2 in [0.0f32, 0.01] {
+        let vpl_walls = vbl::vpl_walls_all(&ts, &vpls, r2);
         let inputs = GatherInputs {
             shading_points: std::slice::from_ref(&sp),
             media_segments: &segments,
             vpls: &vpls,
+            vpl_walls: &vpl_walls,
             vrls: &vrls,
             paths: 1,
             pair_seed,

@@ -112,8 +112,6 @@ fn media_segment(origin: Vec3, dir: Vec3, length: f32) -> MediaSegment {
         medium: 0,
         throughput: [1.0; 3],
         pixel: 0,
-        end_normal: [0.0; 3],
-        _pad: 0,
     }
 }
 
@@ -641,4 +639,61 @@ fn a_sphere_larger_than_the_scene_still_gives_light() {
     // at least share/L: a sample is at most Φ σs (2/R²) max(f cos) max(phase) · L / share.
     let bound = 1.0 * 0.5 * (2.0 / 100.0) * (0.6 / std::f64::consts::PI) * hg_bound(0.3) * 1.9 / 0.1;
     assert!(a.max <= bound, "Lsm {} above {bound}", a.max);
+}
+
+/// The probes that find the walls next to a VSL centre (`vbl::Walls::around`), in a room
+/// [−1, 1]³ with a ball of radius 0.3 at the origin and an invisible medium boundary (a box
+/// x ∈ [0.5, 0.9]): at a corner the three walls within 2R, each once, facing the centre; no wall
+/// farther than 2R; the ball's plane only where a probe meets it head-on (its tangent plane at
+/// an oblique hit would cut the free space beside it); nothing through the invisible boundary;
+/// and for a VPL (surface `sheet`) no plane parallel to its own surface. Made to fail by
+/// dropping the head-on test (the oblique ball plane is then kept) and the 2R test.
+#[test]
+fn probes_find_the_walls_next_to_a_centre() {
+    use beamlight_testkit::gltf_writer::shapes;
+    use beamlight_trace::vbl::Walls;
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 4, 4);
+    let wall = add_material(&mut s, lambert("wall", 0.5));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    add_mesh(&mut s, shapes::uv_sphere(Vec3::ZERO, 0.3, 32, 64), wall, None);
+    let boundary = add_material(&mut s, material("boundary", None, Rgb::ZERO, false));
+    s.media.push(homogeneous(Rgb::splat(0.5), Rgb::ZERO, 0.0));
+    add_mesh(
+        &mut s,
+        shapes::cuboid(Vec3::new(0.5, -0.2, -0.2), Vec3::new(0.9, 0.2, 0.2), true),
+        boundary,
+        Some(beamlight_scene::scene::MediumInterface {
+            inside: Some(0),
+            outside: None,
+        }),
+    );
+    let ts = TraceScene::new(s);
+    let normals = |w: &Walls| -> Vec<Vec3> { w.planes().iter().map(|p| p.normal.round()).collect() };
+    // A corner: the floor, the wall x = −1 and the back wall z = −1, within 2R = 0.4.
+    let c = Vec3::new(-0.9, -0.85, -0.8);
+    let w = Walls::around(&ts, c, c, 0.2, None);
+    let mut got = normals(&w);
+    got.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap());
+    assert_eq!(got, vec![Vec3::Z, Vec3::Y, Vec3::X], "corner walls: {w:?}");
+    for p in w.planes() {
+        assert!((c - p.point).dot(p.normal) > 0.0 && (c - p.point).dot(p.normal) <= 0.4);
+    }
+    // 0.21 from the same walls with R = 0.1: the probes (0.23 long) meet them, but none lies
+    // within 2R.
+    let c = Vec3::splat(-0.79);
+    assert!(Walls::around(&ts, c, c, 0.1, None).planes().is_empty());
+    // Beside the ball, on an axis through its centre: the probe meets it head-on.
+    let c = Vec3::new(-0.45, 0.0, 0.0);
+    assert_eq!(normals(&Walls::around(&ts, c, c, 0.1, None)), vec![-Vec3::X]);
+    // Off that axis the +x probe meets the ball 40° from head-on: no plane.
+    let c = Vec3::new(-0.45, 0.193, 0.0);
+    let w = Walls::around(&ts, c, c, 0.1, None);
+    assert!(w.planes().is_empty(), "an oblique hit on the ball gave {w:?}");
+    // The invisible boundary at x = 0.5 is no wall (the ball is beyond the probes here).
+    let c = Vec3::new(0.47, 0.0, 0.0);
+    assert!(Walls::around(&ts, c, c, 0.05, None).planes().is_empty());
+    // A VPL on the floor next to the wall x = −1: that wall only, not the floor itself.
+    let q = Vec3::new(-0.9, -1.0, 0.5);
+    let from = q + Vec3::Y * 1e-4;
+    assert_eq!(normals(&Walls::around(&ts, q, from, 0.2, Some(Vec3::Y))), vec![Vec3::X]);
 }

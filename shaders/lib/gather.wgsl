@@ -26,9 +26,6 @@ struct MediaSegment {
     medium: u32,
     throughput: vec3<f32>,
     pixel: u32,
-    // Normal of the surface the stretch ends on, facing back along it; zero for none.
-    end_normal: vec3<f32>,
-    _pad: u32,
 }
 
 // `light_paths::SurfaceVertex`: a VPL.

@@ -1,6 +1,7 @@
 //! use lib/gather.wgsl
 //! use lib/media.wgsl
 //! use lib/sampling.wgsl
+//! use lib/walls.wgsl
 // What the VBL/VSL kernels share: twins of the helpers in `beamlight_trace::vbl` (the VSL's
 // cone of gather directions, the scattering functions as factors of the cone integrand and as
 // lobes to draw directions from, the cone integral, the angular PDFs' vertices). WGSL has no
@@ -201,11 +202,6 @@ struct Collection {
     sheet: vec3<f32>,
     // Transmittance × visibility from origin to centre (the shadow ray's).
     transmittance: vec3<f32>,
-    // `vbl::Wall`: the surface a medium receiver's camera segment ends on, a point of it and
-    // the normal facing the receiver (`has_wall` false: none, or the receiver is not near it).
-    has_wall: bool,
-    wall_point: vec3<f32>,
-    wall_normal: vec3<f32>,
     // `Collection::medium`: a VBL point's medium when it has a density grid, whose density at
     // the collection point scales the light (`grid_medium`); NO_MEDIUM otherwise.
     medium: u32,
@@ -217,16 +213,13 @@ fn grid_medium(m: Medium, mi: u32) -> u32 {
     return select(NO_MEDIUM, mi, m.grid_res.x != 0u);
 }
 
-// `Wall::near`: `col` with the wall camera segment `seg` ends on, if its receiver lies within
-// 2R of the segment's end.
-fn with_end_wall(col: Collection, seg: MediaSegment) -> Collection {
-    var c = col;
-    c.wall_point = seg.origin + seg.dir * seg.length;
-    c.wall_normal = seg.end_normal;
-    let off = col.origin - c.wall_point;
-    c.has_wall = any(seg.end_normal != vec3<f32>(0.0)) && dot(off, off) <= 4.0 * col.r * col.r;
-    return c;
-}
+// The walls next to each VPL of the pass, found on the CPU (`vbl::vpl_walls_all`).
+@group(1) @binding(10) var<storage, read> vpl_walls: array<Walls>;
+
+// `Collection::walls`: the surfaces next to the VSL centre being integrated, where its photons'
+// density ends (set by the kernel before `integrate_cone`; a private variable rather than a
+// field of `Collection`, which is passed by value for every direction).
+var<private> centre_walls: Walls;
 
 // `vbl::uncut_weight`: 1 / (the uncut fraction of the disc), in [1, 2].
 fn uncut_weight(height: f32, reach: f32) -> f32 {
@@ -266,17 +259,27 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
         share = max(t, 0.0) / d;
     }
     var weight = uncut_weight(height, reach);
-    if col.has_wall {
-        let wall_n = dot(w, col.wall_normal);
-        let wall_height = (dot(col.origin - col.wall_point, col.wall_normal) * wm + dot(to, m) * wall_n) * select(1.0, -1.0, wm < 0.0);
-        let wall_reach = col.r * length_glam(col.wall_normal * wm - m * wall_n);
-        let in_front = dot(col.centre - col.wall_point, col.wall_normal) >= 0.0;
-        if in_front && wall_reach > 1e-4 * col.r * abs(wm) {
-            if wall_height < 0.0 {
-                return vec3<f32>(0.0);
-            }
-            weight *= uncut_weight(wall_height, wall_reach);
+    let sign = select(1.0, -1.0, wm < 0.0);
+    let to_m = dot(to, m);
+    for (var i = 0u; i < centre_walls.count; i++) {
+        let wall = centre_walls.planes[i];
+        let above = dot(col.origin - wall.point, wall.normal);
+        let own = col.has_plane && dot(col.plane, wall.normal) > 0.999 && abs(above) <= 1e-3 * col.r;
+        if own || above < -1e-3 * col.r {
+            continue;
         }
+        let wall_n = dot(w, wall.normal);
+        let wall_height = (above * wm + to_m * wall_n) * sign;
+        let across = wall.normal * wm - m * wall_n;
+        let reach2 = col.r * col.r * dot(across, across);
+        let parallel = 1e-4 * col.r * wm;
+        if (wall_height >= 0.0 && wall_height * wall_height >= reach2) || !(reach2 > parallel * parallel) {
+            continue;
+        }
+        if wall_height < 0.0 {
+            return vec3<f32>(0.0);
+        }
+        weight *= uncut_weight(wall_height, sqrt(reach2));
     }
     // Clamped into the grid's box, as on the CPU.
     var density = 1.0;

@@ -105,10 +105,12 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
     let (lo, hi) = ts.scene.bounds();
     let radius2 = (0.1 * (hi - lo).length() * 0.535f32).powi(2);
     let vbl = VblSettings::default();
+    let vpl_walls = vbl::vpl_walls_all(ts, &lights.vpls, radius2);
     let inputs = GatherInputs {
         shading_points: &gather.shading_points,
         media_segments: &gather.media_segments,
         vpls: &lights.vpls,
+        vpl_walls: &vpl_walls,
         vrls: &lights.vrls,
         paths: lights.paths,
         pair_seed,
@@ -162,13 +164,29 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
                 vrl::vrl_to_media(ts, seg, v, 0.0, &mut pair(GatherKind::VrlToMedia, i, j))
             }),
             GatherKernel::VslSurface => sum_over(sps, &lights.vpls, |i, sp, j, v| {
-                vbl::vsl_to_surface(ts, sp, v, radius2, &vbl, &mut pair(GatherKind::VplToSurface, i, j))
+                vbl::vsl_to_surface_within(
+                    ts,
+                    sp,
+                    v,
+                    &vpl_walls[j],
+                    radius2,
+                    &vbl,
+                    &mut pair(GatherKind::VplToSurface, i, j),
+                )
             }),
             GatherKernel::VblSurface => sum_over(sps, &lights.vrls, |i, sp, j, v| {
                 vbl::vbl_to_surface(ts, sp, v, radius2, &vbl, &mut pair(GatherKind::VrlToSurface, i, j))
             }),
             GatherKernel::VslMedia => sum_over(segs, &lights.vpls, |i, seg, j, v| {
-                vbl::vsl_to_media(ts, seg, v, radius2, &vbl, &mut pair(GatherKind::VplToMedia, i, j))
+                vbl::vsl_to_media_within(
+                    ts,
+                    seg,
+                    v,
+                    &vpl_walls[j],
+                    radius2,
+                    &vbl,
+                    &mut pair(GatherKind::VplToMedia, i, j),
+                )
             }),
             GatherKernel::VblMedia => sum_over(segs, &lights.vrls, |i, seg, j, v| {
                 vbl::vbl_to_media(ts, seg, v, radius2, &vbl, &mut pair(GatherKind::VrlToMedia, i, j))
@@ -242,7 +260,9 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
                 .enumerate()
                 .map(|(i, sp)| {
                     estimate(i, Receiver::at_point(&ts.scene, sp), &|j, s| match k {
-                        GatherKernel::VslSurface => vbl::vsl_to_surface(ts, sp, &vpls[j], radius2, &vbl, s),
+                        GatherKernel::VslSurface => {
+                            vbl::vsl_to_surface_within(ts, sp, &vpls[j], &all.vpl_walls[j], radius2, &vbl, s)
+                        }
                         _ => vbl::vbl_to_surface(ts, sp, &vrls[j], radius2, &vbl, s),
                     })
                 })
@@ -252,7 +272,9 @@ fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
                 .enumerate()
                 .map(|(i, seg)| {
                     estimate(i, Receiver::along_segment(&ts.scene, seg), &|j, s| match k {
-                        GatherKernel::VslMedia => vbl::vsl_to_media(ts, seg, &vpls[j], radius2, &vbl, s),
+                        GatherKernel::VslMedia => {
+                            vbl::vsl_to_media_within(ts, seg, &vpls[j], &all.vpl_walls[j], radius2, &vbl, s)
+                        }
                         _ => vbl::vbl_to_media(ts, seg, &vrls[j], radius2, &vbl, s),
                     })
                 })

@@ -36,6 +36,12 @@ pub enum GpuError {
     Readback(String),
     #[error("the GPU reported: {0}")]
     Reported(String),
+    #[error(
+        "the GPU driver cut the loops of {kernel} short in {records} gather records (lavapipe caps \
+         the loop iterations of one invocation): their results would be wrong; draw fewer lights \
+         per record (--light-samples) or use --backend cpu"
+    )]
+    LoopCap { kernel: &'static str, records: usize },
     #[error("{what} needs {needed} but the adapter allows {allowed}")]
     Limit {
         what: &'static str,

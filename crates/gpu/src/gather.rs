@@ -178,7 +178,7 @@ pub struct Gathers {
 const PAIRS_PER_DISPATCH: usize = 1 << 16;
 
 /// The slots of bind group 1 (see `lib/gather.wgsl`).
-const GATHER_SLOTS: [Slot; 10] = [
+const GATHER_SLOTS: [Slot; 11] = [
     Slot::Uniform,
     Slot::Read,
     Slot::Read,
@@ -189,6 +189,8 @@ const GATHER_SLOTS: [Slot; 10] = [
     Slot::ReadWrite,
     // The light trees and the flat draw's masses (`lib/light_tree.wgsl`).
     Slot::Read,
+    Slot::Read,
+    // The walls next to each VPL (`lib/vbl.wgsl`).
     Slot::Read,
 ];
 
@@ -316,6 +318,21 @@ impl Gathers {
         };
         let vpl_bsdfs = compute::storage(gpu, "VPL BSDFs", &vpl_bsdfs)?;
         let vrls = compute::storage(gpu, "VRLs", if need_vrls { inputs.vrls } else { &[] })?;
+        // The VSL kernels read each VPL's walls, found on the CPU once per pass.
+        let need_walls = any(|k| k.reads_vpls() && GatherKernel::BEAMS.contains(&k));
+        if need_walls && inputs.vpl_walls.len() != inputs.vpls.len() {
+            return Err(GpuError::Inputs(format!(
+                "{} VPLs but the walls of {}",
+                inputs.vpls.len(),
+                inputs.vpl_walls.len()
+            )));
+        }
+        let vpl_walls: Vec<layout::Walls> = if need_walls {
+            inputs.vpl_walls.iter().map(layout::Walls::from).collect()
+        } else {
+            Vec::new()
+        };
+        let vpl_walls = compute::storage(gpu, "VPL walls", &vpl_walls)?;
         // Both trees in one binding: the VSL tree's nodes, then the VBL tree's.
         let trees: Vec<LightTreeNode> = inputs.vsl_tree.iter().chain(inputs.vbl_tree).copied().collect();
         let trees = compute::storage(gpu, "light trees", &trees)?;
@@ -417,6 +434,7 @@ impl Gathers {
                         chunk_of(&out, first, n, 16, true),
                         compute::Binding::Whole(&trees),
                         masses_of_chunk,
+                        compute::Binding::Whole(&vpl_walls),
                     ],
                 );
                 pass.set_bind_group(1, &group, &[]);
@@ -508,6 +526,14 @@ impl PendingGathers {
         let mut at = 0;
         for (k, n) in self.layout {
             let records = &values[at..at + n];
+            // −1: the driver stopped the invocation's loops early (`lib/gather_entry.wgsl`).
+            let cut = records.iter().filter(|v| v[3] < 0.0).count();
+            if cut > 0 {
+                return Err(GpuError::LoopCap {
+                    kernel: k.file(),
+                    records: cut,
+                });
+            }
             gathered.results[k as usize] = records.iter().map(|v| Rgb::new(v[0], v[1], v[2])).collect();
             gathered.discarded[k as usize] = records.iter().map(|v| v[3] as u64).sum();
             at += n;

@@ -174,3 +174,40 @@ pub struct GatherParams {
 pub const ANGULAR_PDF_VBL: u32 = 0;
 /// `GatherParams::angular_pdf`: the VRL paper's vertex values (at the cone's axis).
 pub const ANGULAR_PDF_VRL: u32 = 1;
+
+/// A wall's plane next to a VSL centre (`Plane` in `lib/vbl.wgsl`; `beamlight_trace::vbl::Plane`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Plane {
+    pub point: [f32; 3],
+    pub _pad0: u32,
+    pub normal: [f32; 3],
+    pub _pad1: u32,
+}
+
+/// The walls next to a VPL (`Walls` in `lib/vbl.wgsl`; `beamlight_trace::vbl::Walls`): the
+/// first `count` planes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Walls {
+    pub planes: [Plane; beamlight_trace::vbl::MAX_WALLS],
+    pub count: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+impl From<&beamlight_trace::vbl::Walls> for Walls {
+    fn from(w: &beamlight_trace::vbl::Walls) -> Self {
+        let mut out = Walls::default();
+        for (i, p) in w.planes().iter().enumerate() {
+            out.planes[i] = Plane {
+                point: p.point.into(),
+                normal: p.normal.into(),
+                ..Default::default()
+            };
+        }
+        out.count = w.planes().len() as u32;
+        out
+    }
+}

@@ -20,6 +20,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("lib/shading.wgsl", include_str!("../../../shaders/lib/shading.wgsl")),
     ("lib/gather.wgsl", include_str!("../../../shaders/lib/gather.wgsl")),
     ("lib/sampling.wgsl", include_str!("../../../shaders/lib/sampling.wgsl")),
+    ("lib/walls.wgsl", include_str!("../../../shaders/lib/walls.wgsl")),
     ("lib/vbl.wgsl", include_str!("../../../shaders/lib/vbl.wgsl")),
     ("lib/angular.wgsl", include_str!("../../../shaders/lib/angular.wgsl")),
     (
@@ -58,6 +59,10 @@ pub const SOURCES: &[(&str, &str)] = &[
     (
         "test/sampling_probe.wgsl",
         include_str!("../../../shaders/test/sampling_probe.wgsl"),
+    ),
+    (
+        "test/walls_probe.wgsl",
+        include_str!("../../../shaders/test/walls_probe.wgsl"),
     ),
 ];
 

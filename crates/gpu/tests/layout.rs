@@ -117,14 +117,13 @@ fn gather_structs_match() {
         ShadingPoint,
         [pos, material, normal, tri, wo, pixel, throughput, medium, uv, _pad2]
     );
-    check!(
-        w,
-        MediaSegment,
-        [origin, length, dir, medium, throughput, pixel, end_normal, _pad]
-    );
+    check!(w, MediaSegment, [origin, length, dir, medium, throughput, pixel]);
     check!(w, SurfaceVertex, [pos, material, normal, tri, wi, u, power, v]);
     check!(w, LightSegment, [origin, length, dir, medium, power, flags]);
     let w = parse("vbl_media.wgsl");
     use beamlight_trace::light_tree::LightTreeNode;
     check!(w, LightTreeNode, [lo, weight, hi, child, sigma_t, g, _pad]);
+    let w = parse("vsl_media.wgsl");
+    check!(w, Plane, [point, _pad0, normal, _pad1]);
+    check!(w, Walls, [planes, count, _pad0, _pad1, _pad2]);
 }

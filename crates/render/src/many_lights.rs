@@ -25,7 +25,7 @@ use beamlight_trace::{
     light_paths::{Keep, LightTracerSettings, trace_light_paths},
     light_tree::{Drawing, FLAT_GROUP, LightTree, Receiver},
     streams,
-    vbl::VblSettings,
+    vbl::{self, VblSettings},
 };
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -484,8 +484,14 @@ pub fn start_pass(
         (lights.nonfinite_paths + photon_lights.nonfinite_paths + beam_lights.nonfinite_paths) as u64;
     let photons = PhotonMap::build(&photon_lights.caustic_photons, photon_r2);
     let beams = BeamMap::build(&beam_lights.photon_beams, beam_r2);
-    times.trace = clock.elapsed();
     let beams_on = settings.lights == VirtualLights::Beams;
+    // The walls next to each VPL, found once for all the records that gather from it.
+    let vpl_walls = if beams_on {
+        vbl::vpl_walls_all(ts, &lights.vpls, r2)
+    } else {
+        Vec::new()
+    };
+    times.trace = clock.elapsed();
     // With light selection, each record draws `k` lights per component from the pass's trees.
     let r = r2.max(0.0).sqrt();
     let media_drawing = settings
@@ -541,6 +547,7 @@ pub fn start_pass(
         shading_points: &points,
         media_segments: &segments,
         vpls: &lights.vpls,
+        vpl_walls: &vpl_walls,
         vrls: &lights.vrls,
         paths: lights.paths,
         pair_seed: streams::pair_seed(seed),

@@ -12,7 +12,7 @@ use beamlight_trace::{
     light_paths::{LightSegment, SurfaceVertex},
     light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver},
     streams::{self, GatherKind},
-    vbl::{self, VblSettings},
+    vbl::{self, VblSettings, Walls},
     vpl, vrl,
 };
 use rayon::prelude::*;
@@ -44,7 +44,8 @@ pub trait Record: Sync {
     /// is a near-delta, whose light the walks carry instead).
     fn gathers(&self, ts: &TraceScene) -> bool;
     fn direct(&self, ts: &TraceScene, s: &mut Sampler) -> Rgb;
-    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, e: &Estimators, s: &mut Sampler) -> Rgb;
+    /// Light from VPL `v`; `walls` are the walls next to it when the estimators are beams.
+    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, walls: &Walls, e: &Estimators, s: &mut Sampler) -> Rgb;
     fn ray_light(&self, ts: &TraceScene, v: &LightSegment, e: &Estimators, s: &mut Sampler) -> Rgb;
 }
 
@@ -70,9 +71,9 @@ impl Record for ShadingPoint {
         direct::direct_at_surface(ts, self, s)
     }
 
-    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, e: &Estimators, s: &mut Sampler) -> Rgb {
+    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, walls: &Walls, e: &Estimators, s: &mut Sampler) -> Rgb {
         if e.beams {
-            vbl::vsl_to_surface(ts, self, v, e.r2, e.vbl, s)
+            vbl::vsl_to_surface_within(ts, self, v, walls, e.r2, e.vbl, s)
         } else {
             vpl::vpl_to_surface(ts, self, v, e.clamp, s)
         }
@@ -109,9 +110,9 @@ impl Record for MediaSegment {
         direct::direct_in_medium(ts, self, s)
     }
 
-    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, e: &Estimators, s: &mut Sampler) -> Rgb {
+    fn point_light(&self, ts: &TraceScene, v: &SurfaceVertex, walls: &Walls, e: &Estimators, s: &mut Sampler) -> Rgb {
         if e.beams {
-            vbl::vsl_to_media(ts, self, v, e.r2, e.vbl, s)
+            vbl::vsl_to_media_within(ts, self, v, walls, e.r2, e.vbl, s)
         } else {
             vpl::vpl_to_media(ts, self, v, e.clamp, s)
         }
@@ -299,7 +300,10 @@ impl PassGathers<'_> {
             lights,
             (kind, i, inputs.pair_seed, inputs.pass),
             &|j, s| match set {
-                LightSet::Points => record.point_light(ts, &inputs.vpls[j], &est, s),
+                LightSet::Points => {
+                    let walls = if self.beams { &inputs.vpl_walls[j] } else { &Walls::NONE };
+                    record.point_light(ts, &inputs.vpls[j], walls, &est, s)
+                }
                 LightSet::Rays => record.ray_light(ts, &inputs.vrls[j], &est, s),
             },
         );

@@ -15,7 +15,6 @@
 //! through specular chains) is added to `emitted`, per pixel.
 use crate::{
     TraceScene,
-    bvh::Hit,
     components::Component,
     context::{MAX_CROSSINGS, SurfaceHit},
     media,
@@ -89,22 +88,6 @@ pub struct MediaSegment {
     /// Throughput at `origin`.
     pub throughput: [f32; 3],
     pub pixel: u32,
-    /// Unit normal of the surface the stretch ends on, facing back along it (towards
-    /// `origin`); zero when it ends in open medium or at an invisible medium boundary. Its
-    /// plane is where the blur of the stretch's last receivers is cut (`vbl::Collection`).
-    pub end_normal: [f32; 3],
-    pub _pad: u32,
-}
-
-/// [`MediaSegment::end_normal`] for a stretch along `d` that ends at `hit` (if anything).
-pub fn end_normal(ts: &TraceScene, hit: Option<Hit>, d: Vec3) -> [f32; 3] {
-    let Some(h) = hit else { return [0.0; 3] };
-    let t = &ts.scene.triangles[h.tri as usize];
-    if ts.scene.materials[t.material as usize].bsdf.is_none() {
-        return [0.0; 3];
-    }
-    let n = t.cross().normalize_or_zero();
-    (if n.dot(d) > 0.0 { -n } else { n }).into()
 }
 
 /// One pass's camera gather data.
@@ -258,8 +241,6 @@ fn trace_one(
                     medium: mi,
                     throughput: throughput.into(),
                     pixel,
-                    end_normal: end_normal(ts, hit, d),
-                    _pad: 0,
                 });
             }
             throughput *= ts.medium_transmittance(medium, o, d, length, s);
@@ -379,8 +360,6 @@ fn walk_sharp_media(
                         medium: mi,
                         throughput: throughput.into(),
                         pixel: seg.pixel,
-                        end_normal: end_normal(ts, hit, wi),
-                        _pad: 0,
                     };
                     walk_segments.push(stretch);
                     todo.push((stretch, depth));

@@ -4,7 +4,7 @@ use crate::{
     camera_paths::{MediaSegment, ShadingPoint},
     light_paths::{LightSegment, SurfaceVertex},
     light_tree::{Drawing, LightTreeNode},
-    vbl::VblSettings,
+    vbl::{VblSettings, Walls},
 };
 
 /// One pass's gather records and virtual lights, as the CPU traced them, and how they are
@@ -14,6 +14,9 @@ pub struct GatherInputs<'a> {
     pub shading_points: &'a [ShadingPoint],
     pub media_segments: &'a [MediaSegment],
     pub vpls: &'a [SurfaceVertex],
+    /// The walls next to each VPL at the pass's radius (`vbl::vpl_walls_all`; the `vbl`
+    /// kernels that gather from VPLs). Empty for the other methods.
+    pub vpl_walls: &'a [Walls],
     pub vrls: &'a [LightSegment],
     /// Light paths traced (the M that every sum is divided by).
     pub paths: u32,

@@ -2,11 +2,8 @@
 //! within R of its centre, the receiver's and the light's lobes over it, and the cone's
 //! numerical integration with the beam radiance estimate's collection point (paper eq. 9 and
 //! issue 19's correction, see the parent module).
-use crate::{
-    TraceScene,
-    camera_paths::{MediaSegment, ShadingPoint},
-    light_paths::SurfaceVertex,
-};
+use super::walls::Walls;
+use crate::{TraceScene, camera_paths::ShadingPoint, light_paths::SurfaceVertex};
 use beamlight_scene::{
     Rgb,
     bsdf::Bsdf,
@@ -252,25 +249,20 @@ pub(super) fn integrate_cone(
 ///   within R of the receiver (`Lms` next to a wall) drops part of the ellipse. For a volume VSL
 ///   (`Lmm`) the discs at t > 0 are never cut by that plane, and the weight is 1.
 ///
-/// Where the ray leaves the medium through a wall, the discs are cut too, but the photons
-/// counted beyond the wall crossing (centre visibility) make up for it at a plane wall, as long
-/// as the receiver is farther from the wall than the discs reach: a disc cut short before the
-/// crossing is mirrored by one beyond it that holds the missing photons. Next to the wall the
-/// pairing breaks down: rays away from it lose their first discs, rays towards it gain discs
-/// beyond it, and the two differ by the transmittance and the phase functions along them
-/// (7.5 % of `Lmm` lost 0.1 above the wall at R = 0.35, by quadrature). The last receivers of
-/// every camera segment are next to the surface it ends on, so for `Lmm` the plane of that
-/// surface is a further cut ([`Wall`], from [`MediaSegment::end_normal`]), applied as a
-/// boundary kernel: nothing is collected beyond it, and a disc it cuts in front of it is
-/// renormalised by its uncut fraction, which is exact at a plane wall. A surface is a plane
-/// only near the point where the camera ray met it, so the cut is kept local: to receivers
-/// within 2R of that point ([`Wall::near`]) and to photons in front of the plane (those behind
-/// it belong to a surface that curves away). It is not applied to `Lms`: a VPL on a side wall
-/// next to the end wall then has its ellipse cut twice, and renormalising by the product of
-/// the two fractions made the furnace's `Lms` darker, not brighter (−3.4 % → −3.6 % at 2 R0).
-/// Not corrected: a receiver within R of a surface its ray does not end on (a camera ray
-/// grazing a wall, corners, where `Lms` and `Lss` lose most: in a flat slab whose side walls
-/// are out of view `Lms` is within 0.5 % at 2 R0, in the cube 3.4 % low).
+/// Where the ray leaves the medium through a wall, the discs are cut too: a photon next to a
+/// wall is collected by rays whose discs reach beyond it, where no photon can be. The photons
+/// counted beyond the wall crossing (centre visibility) make up for it only where the
+/// integrand is nearly linear across the disc, as a disc cut short before the crossing is
+/// mirrored by one beyond it; next to the receiver the pairing breaks down (7.5 % of `Lmm` lost
+/// 0.1 above the wall its segment ends on at R = 0.35, by quadrature), and at edges and corners
+/// (the grey furnace cube lost 1.3 % at 2 R0, `Lss` and `Lms` 3–4 %). So every surface within
+/// 2R of the photon ([`Walls`], found by probe rays from the VSL centre) is a further cut,
+/// applied as a boundary kernel: nothing is collected beyond its plane, and a disc it cuts in
+/// front of it is renormalised by its uncut fraction; exact at a plane wall, for any receiver.
+/// A wall that is the receiver's own surface is already its `plane`, and a wall the receiver
+/// lies behind is no boundary between the two (a surface that curves away): both are skipped.
+/// Walls meeting at an edge or a corner multiply their weights, which is exact while their cuts
+/// of a disc do not overlap.
 ///
 /// **Where the photon scatters.** A VBL point's photon is collected at the gather ray's point
 /// nearest to it, up to R away from the VRL: the blur estimates the beams' fluence there, so
@@ -289,29 +281,11 @@ pub(super) struct Collection<'a> {
     pub(super) r: f32,
     /// Transmittance × visibility from `origin` to `centre` (the shadow ray's).
     pub(super) transmittance: Rgb,
-    /// The surface a medium receiver's camera segment ends on, when the receiver is near it.
-    pub(super) wall: Option<Wall>,
+    /// The surfaces next to the centre, where its photons' density ends.
+    pub(super) walls: Walls,
     /// A VBL point's medium when it has a density grid: the light is scaled by the grid's
     /// density at the collection point (the caller leaves the density at the centre out).
     pub(super) medium: Option<&'a Medium>,
-}
-
-/// The plane of the surface a camera segment ends on: its end point and the unit normal facing
-/// back along the segment (see [`Collection`]).
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Wall {
-    pub(super) point: Vec3,
-    pub(super) normal: Vec3,
-}
-
-impl Wall {
-    /// The end wall of `seg` for a receiver at `x` on it, if the receiver is within 2R of the
-    /// segment's end (farther receivers keep the mirror pairing of [`Collection`]).
-    pub(super) fn near(seg: &MediaSegment, x: Vec3, r: f32) -> Option<Self> {
-        let normal = Vec3::from(seg.end_normal);
-        let point = Vec3::from(seg.origin) + Vec3::from(seg.dir) * seg.length;
-        (normal != Vec3::ZERO && (x - point).length_squared() <= 4.0 * r * r).then_some(Self { point, normal })
-    }
 }
 
 impl Collection<'_> {
@@ -338,22 +312,28 @@ impl Collection<'_> {
         let d = to.length();
         let share = if d > 0.0 { t.max(0.0) / d } else { 1.0 };
         let mut weight = uncut_weight(height, reach);
-        if let Some(wall) = self.wall {
+        let (sign, to_m) = (if wm < 0.0 { -1.0 } else { 1.0 }, to.dot(m));
+        for wall in self.walls.planes() {
+            let above = (self.origin - wall.point).dot(wall.normal);
+            let own = self
+                .plane
+                .is_some_and(|n| n.dot(wall.normal) > 0.999 && above.abs() <= 1e-3 * self.r);
+            if own || above < -1e-3 * self.r {
+                continue;
+            }
             let wall_n = w.dot(wall.normal);
             // The collection point's height over the wall and the ellipse's reach across it,
             // both multiplied by |ω'·m| as above (the point is origin + t ω').
-            let height = ((self.origin - wall.point).dot(wall.normal) * wm + to.dot(m) * wall_n)
-                * if wm < 0.0 { -1.0 } else { 1.0 };
-            let reach = self.r * (wall.normal * wm - m * wall_n).length();
-            // A photon behind the plane belongs to a surface that curves away from it: the
-            // plane says nothing about it. A sheet parallel to the wall is not cut by it.
-            let in_front = (self.centre - wall.point).dot(wall.normal) >= 0.0;
-            if in_front && reach > 1e-4 * self.r * wm.abs() {
-                if height < 0.0 {
-                    return Rgb::ZERO;
-                }
-                weight *= uncut_weight(height, reach);
+            let height = (above * wm + to_m * wall_n) * sign;
+            let reach2 = self.r * self.r * (wall.normal * wm - m * wall_n).length_squared();
+            // A disc the wall misses, or a sheet parallel to the wall, is not cut by it.
+            if (height >= 0.0 && height * height >= reach2) || !(reach2 > (1e-4 * self.r * wm).powi(2)) {
+                continue;
             }
+            if height < 0.0 {
+                return Rgb::ZERO;
+            }
+            weight *= uncut_weight(height, reach2.sqrt());
         }
         // Clamped into the grid's box: a point beyond a wall stands for the photons the centre's
         // visibility counts there in place of the cut discs (see above), which scatter in the

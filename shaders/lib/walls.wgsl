@@ -1,0 +1,121 @@
+//! use lib/bvh.wgsl
+//! use lib/sampling.wgsl
+// The walls next to a VSL centre, twins of `beamlight_trace::vbl::walls`: where its photons'
+// density ends, found by short probe rays, so that the blur can be cut there.
+
+// `vbl::Plane`: a wall's plane, a point of it and its unit normal facing the VSL centre.
+struct Plane {
+    point: vec3<f32>,
+    _pad0: u32,
+    normal: vec3<f32>,
+    _pad1: u32,
+}
+
+// `vbl::Walls`: the walls next to a VSL centre (at most MAX_WALLS, one per probe).
+const MAX_WALLS: u32 = 6u;
+struct Walls {
+    planes: array<Plane, 6>,
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// cos 30°: how nearly head-on a probe must meet a surface for its plane to be a wall.
+const HEAD_ON: f32 = 0.8660254;
+
+// Probe direction k of `walls::AXES`: +x, −x, +y, −y, +z, −z.
+fn probe_axis(k: u32) -> vec3<f32> {
+    let s = select(-1.0, 1.0, k % 2u == 0u);
+    return vec3<f32>(select(0.0, s, k / 2u == 0u), select(0.0, s, k / 2u == 1u), select(0.0, s, k / 2u == 2u));
+}
+
+// `Walls::around` for a volume VSL centre (probed from the centre itself; a VPL's walls are
+// found on the CPU, `vpl_walls`): the surfaces with a BSDF that a probe along an axis meets
+// within 30° of head-on and whose plane passes within 2R of `centre`.
+fn walls_around(centre: vec3<f32>, r: f32) -> Walls {
+    var walls: Walls;
+    let reach = 2.0 * r;
+    if !(reach > 0.0 && finite_f32(reach)) {
+        return walls;
+    }
+    let hits = probe_hits(centre, reach / HEAD_ON);
+    for (var k = 0u; k < MAX_WALLS; k++) {
+        let d = probe_axis(k);
+        let hit = hits[k];
+        // A surface the probe starts on says nothing reliable about which side is free.
+        if !(hit.t > 1e-3 * r) || (triangle_info[hit.tri].flags & TRI_NULL_INTERFACE) != 0u {
+            continue;
+        }
+        let t = scene_triangle(hit.tri);
+        let ng = normalize_or_zero(cross(t.p1 - t.p0, t.p2 - t.p0));
+        let normal = select(ng, -ng, dot(ng, d) > 0.0);
+        let point = centre + d * hit.t;
+        if -dot(d, normal) < HEAD_ON || !(dot(centre - point, normal) <= reach) {
+            continue;
+        }
+        // The same wall met by a second probe.
+        var known = false;
+        for (var i = 0u; i < walls.count; i++) {
+            let p = walls.planes[i];
+            known = known || (dot(p.normal, normal) > 0.999 && abs(dot(point - p.point, normal)) <= 1e-3 * r);
+        }
+        if !known {
+            walls.planes[walls.count] = Plane(point, 0u, normal, 0u);
+            walls.count += 1u;
+        }
+    }
+    return walls;
+}
+
+// The closest hits of the six probes from `o` with t in (0, tmax), the twins of six
+// `closest_hit` calls, found in one traversal of the BVH: lavapipe caps the loop iterations of
+// an invocation (`lib/gather_entry.wgsl`), and six traversals a pair reached the cap where a
+// record gathers every light. hits[k] is probe k's (`probe_axis`), t < 0 for none.
+fn probe_hits(o: vec3<f32>, tmax: f32) -> array<Hit, 6> {
+    let none = Hit(-1.0, 0u, 0.0, 0.0);
+    var hits = array<Hit, 6>(none, none, none, none, none, none);
+    var best = array<f32, 6>(tmax, tmax, tmax, tmax, tmax, tmax);
+    let d = array<vec3<f32>, 6>(probe_axis(0u), probe_axis(1u), probe_axis(2u), probe_axis(3u), probe_axis(4u), probe_axis(5u));
+    let rays = array<TriangleRay, 6>(
+        triangle_ray(o, d[0]), triangle_ray(o, d[1]), triangle_ray(o, d[2]),
+        triangle_ray(o, d[3]), triangle_ray(o, d[4]), triangle_ray(o, d[5]),
+    );
+    let inv = array<vec3<f32>, 6>(
+        safe_inverse(d[0]), safe_inverse(d[1]), safe_inverse(d[2]),
+        safe_inverse(d[3]), safe_inverse(d[4]), safe_inverse(d[5]),
+    );
+    var i = 0u;
+    while i < scene_info.node_count {
+        let node = nodes[i];
+        // Entered when any probe still reaches it (no loop: each turn counts against the cap).
+        let entered = box_entry(node.lo, node.hi, o, inv[0], best[0]) < NO_ENTRY
+            || box_entry(node.lo, node.hi, o, inv[1], best[1]) < NO_ENTRY
+            || box_entry(node.lo, node.hi, o, inv[2], best[2]) < NO_ENTRY
+            || box_entry(node.lo, node.hi, o, inv[3], best[3]) < NO_ENTRY
+            || box_entry(node.lo, node.hi, o, inv[4], best[4]) < NO_ENTRY
+            || box_entry(node.lo, node.hi, o, inv[5], best[5]) < NO_ENTRY;
+        if entered && node.count > 0u {
+            for (var k = node.first; k < node.first + node.count; k++) {
+                let tri = leaf_triangle(k);
+                probe_triangle(&hits, &best, rays[0], 0u, tri);
+                probe_triangle(&hits, &best, rays[1], 1u, tri);
+                probe_triangle(&hits, &best, rays[2], 2u, tri);
+                probe_triangle(&hits, &best, rays[3], 3u, tri);
+                probe_triangle(&hits, &best, rays[4], 4u, tri);
+                probe_triangle(&hits, &best, rays[5], 5u, tri);
+            }
+        }
+        i = next_node(i, node, entered);
+    }
+    return hits;
+}
+
+// Probe `k` (ray `r`) against `tri`: a hit closer than its best so far replaces it.
+fn probe_triangle(hits: ptr<function, array<Hit, 6>>, best: ptr<function, array<f32, 6>>, r: TriangleRay, k: u32, tri: Triangle) {
+    let h = intersect_triangle(r, tri.p0, tri.p1, tri.p2, 0.0, (*best)[k]);
+    if h.x >= 0.0 {
+        (*best)[k] = h.x;
+        (*hits)[k] = Hit(h.x, tri.id, h.y, h.z);
+    }
+}
