@@ -31,7 +31,7 @@ fn furnace_estimate(ts: &TraceScene, set: &GatherSet, radiance_in: impl Fn(u32) 
 #[test]
 fn record_layouts_are_gpu_friendly() {
     assert_eq!(std::mem::size_of::<ShadingPoint>(), 80);
-    assert_eq!(std::mem::size_of::<MediaSegment>(), 64);
+    assert_eq!(std::mem::size_of::<MediaSegment>(), 48);
 }
 
 #[test]

@@ -283,15 +283,7 @@ fn check_kernel(name: &str, k: GatherKernel, gpu: &[Rgb], cpu: &[Rgb], explain: 
 /// (clamped at `clamp`; not with `None`), then the `vbl` kernels with `vbl_settings` for each
 /// VBL/VSL radius in `radii`.
 fn compare_gathers(name: &str, scene: Scene, clamp: Option<f32>, radii: &[f32], vbl_settings: VblSettings) {
-    compare_gathers_chunked(name, scene, clamp, radii, vbl_settings, None, 32);
-}
-
-/// [`compare_gathers`] with half the light paths, for pairs dear in loop turns (many
-/// directions and angular vertices, a finely tessellated ball's BVH): lavapipe caps the loop
-/// iterations of one invocation, and a record that gathers every light must stay under the
-/// cap (the kernels report reaching it, `GpuError::LoopCap`).
-fn compare_dear_gathers(name: &str, scene: Scene, clamp: Option<f32>, radii: &[f32], vbl_settings: VblSettings) {
-    compare_gathers_chunked(name, scene, clamp, radii, vbl_settings, None, 16);
+    compare_gathers_chunked(name, scene, clamp, radii, vbl_settings, None);
 }
 
 /// [`compare_gathers`] with the records split into dispatches of `chunk` records, as the
@@ -303,7 +295,6 @@ fn compare_gathers_chunked(
     radii: &[f32],
     vbl_settings: VblSettings,
     chunk: Option<usize>,
-    paths: u32,
 ) {
     let Some(_) = beamlight_gpu::device::for_tests() else {
         return;
@@ -316,7 +307,7 @@ fn compare_gathers_chunked(
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     let (seed, pass) = (7, 3);
     let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, seed, pass);
-    let lights = trace_light_paths(&ts, &LightTracerSettings::default(), paths, seed, pass);
+    let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 32, seed, pass);
     let pair_seed = streams::pair_seed(seed);
     let vsl_tree = LightTree::over_vsls(&ts.scene, &lights.vpls);
     let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
@@ -663,7 +654,6 @@ fn chunked_dispatches_match_cpu() {
         &[0.1],
         VblSettings::default(),
         Some(48),
-        32,
     );
 }
 
@@ -689,7 +679,7 @@ fn vbl_gathers_match_cpu_with_other_settings() {
         pdf: AngularPdf::Vrl,
         uniform_share: 0.0,
     };
-    compare_dear_gathers(
+    compare_gathers(
         "lumpy glossy fog box, rich settings",
         glossy_fog_box(true),
         None,
@@ -727,7 +717,7 @@ fn vbl_gathers_match_cpu_around_a_glass_ball() {
             ..VblSettings::default()
         };
         let name = format!("glass ball, {pdf_vertices} angular vertices");
-        compare_dear_gathers(&name, scene.clone(), None, &[0.1], settings);
+        compare_gathers(&name, scene.clone(), None, &[0.1], settings);
     }
 }
 

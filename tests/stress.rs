@@ -232,8 +232,9 @@ fn furnace_bound_holds_at_the_extremes() {
 /// error ≈ 0.12 %; ≈ 1 % at g = 0.9, whose renders are heavy-tailed). The normal run: 12²,
 /// g = 0.5 at R0 and 2 R0, 48 seeds (standard error ≈ 0.4 %), which catches a loss of about
 /// 2 % (without the renormalisation of cut discs: −2.9 % at 2 R0, 4.5 standard errors outside,
-/// fails), not the residual of about 1 % near walls and corners that the full run bounds (and
-/// at 2 R0 does not yet meet; issue 19).
+/// fails), not the 1.3 % that 2 R0 lost before the cuts at the walls next to each VSL centre
+/// (`vbl::Walls`; now −0.29 ± 0.14 % there over 400 seeds at 12², g = 0.5), which only the
+/// full run resolves.
 #[test]
 fn vbl_furnace_within_one_percent_at_every_radius() {
     let full = std::env::var("BEAMLIGHT_STRESS").is_ok_and(|v| v == "full");

@@ -82,6 +82,12 @@ struct GatherParams {
     poison: u32,
     // How `Lmm`'s records draw their VBLs: 0 down the tree, 1 flat (`light_tree::Drawing`).
     media_drawing: u32,
+    // An all-pairs gather goes over its lights in chunks, one dispatch each (lavapipe caps the
+    // loop iterations of an invocation, `lib/gather_entry.wgsl`): this dispatch gathers lights
+    // first_light .. first_light + light_chunk, and a chunk after the first adds to what the
+    // earlier ones wrote.
+    first_light: u32,
+    light_chunk: u32,
 }
 
 // `components::SHARP_PHASE_G`: HG media at least this anisotropic are sharp, and a camera
@@ -137,7 +143,7 @@ fn admit(v: vec3<f32>, discarded: ptr<function, u32>) -> vec3<f32> {
 // `record_gathers::injected`: the record's estimate, or the injected NaN for the pass's first record
 // (`GatherParams::poison`).
 fn injected(v: vec3<f32>, record: u32) -> vec3<f32> {
-    if params.poison != 0u && params.record_offset + record == 0u {
+    if params.poison != 0u && params.record_offset + record == 0u && params.first_light == 0u {
         return vec3<f32>(bitcast<f32>(params.poison));
     }
     return v;

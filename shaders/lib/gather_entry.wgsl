@@ -34,7 +34,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gathers_here(r) {
         let tree = light_tree_of(r);
         if params.light_samples == 0u {
-            for (var j = 0u; j < params.lights; j++) {
+            let end = min(params.first_light + params.light_chunk, params.lights);
+            for (var j = params.first_light; j < end; j++) {
                 var s = pair_sampler(GATHER_KIND, i, j);
                 sum += admit(light_contribution(r, j, &s), &discarded);
             }
@@ -101,6 +102,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var k = 0u; k < turns_wanted; k++) {
         turns++;
     }
-    gathered[i] = vec4<f32>(total, select(f32(discarded), -1.0, turns < turns_wanted));
+    var out = vec4<f32>(total, f32(discarded));
+    if params.first_light > 0u {
+        let before = gathered[i];
+        out = vec4<f32>(before.xyz + total, select(before.w + f32(discarded), -1.0, before.w < 0.0));
+    }
+    gathered[i] = select(out, vec4<f32>(out.xyz, -1.0), turns < turns_wanted);
 }
 

@@ -177,6 +177,13 @@ pub struct Gathers {
 /// seconds.
 const PAIRS_PER_DISPATCH: usize = 1 << 16;
 
+/// Lights an all-pairs gather's invocation takes per dispatch. lavapipe stops every loop of an
+/// invocation once it has run 65 535 loop iterations in all (`GpuError::LoopCap`); a VBL pair
+/// costs up to about 900 (a shadow ray's and the walls' BVH traversals, the angular PDF's
+/// vertices, the cone's directions; more with `--vsl-directions 100 --pdf-vertices 64`), so 32
+/// lights stay well below it. The rest of the lights follow in further dispatches.
+pub const LIGHTS_PER_DISPATCH: usize = 32;
+
 /// The slots of bind group 1 (see `lib/gather.wgsl`).
 const GATHER_SLOTS: [Slot; 11] = [
     Slot::Uniform,
@@ -354,10 +361,13 @@ impl Gathers {
             // Work per record in pairs: its drawn ones, or every light's; a flat draw (`Lmm`)
             // also walks its group's masses (a read and an add per VBL).
             let flat = drawn && k == GatherKernel::VblMedia && inputs.media_drawing == Drawing::Flat;
+            // An all-pairs gather takes its lights in chunks, one dispatch each: lavapipe caps
+            // the loop iterations of an invocation (`GpuError::LoopCap`).
+            let light_chunk = if drawn { lights } else { lights.min(LIGHTS_PER_DISPATCH) };
             let work = match (drawn, flat) {
                 (true, true) => samples as usize + lights.div_ceil(64),
                 (true, false) => samples as usize,
-                (false, _) => lights,
+                (false, _) => light_chunk,
             };
             let chunk = self.records_per_dispatch(gpu, work);
             let out = compute::output_unbound::<[f32; 4]>(gpu, "gathered", records)?;
@@ -369,7 +379,10 @@ impl Gathers {
             });
             pass.set_pipeline(&kernel.pipeline);
             pass.set_bind_group(0, &scene.bind_group, &[]);
-            for first in (0..records).step_by(chunk) {
+            for (first, first_light) in (0..records)
+                .step_by(chunk)
+                .flat_map(|first| (0..lights.max(1)).step_by(light_chunk.max(1)).map(move |l| (first, l)))
+            {
                 let n = chunk.min(records - first);
                 let (x, y, row) = compute::dispatch_size(gpu, n as u32);
                 let params = GatherParams {
@@ -394,6 +407,8 @@ impl Gathers {
                     vbl_tree_nodes: inputs.vbl_tree.len() as u32,
                     poison: if inputs.inject_nan { f32::NAN.to_bits() } else { 0 },
                     media_drawing: (inputs.media_drawing == Drawing::Flat) as u32,
+                    first_light: first_light as u32,
+                    light_chunk: light_chunk as u32,
                 };
                 let params = compute::uniform(gpu, "gather params", &params);
                 // This chunk's records; of the other kind's array (unused) just its start.

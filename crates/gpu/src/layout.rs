@@ -168,6 +168,10 @@ pub struct GatherParams {
     pub poison: u32,
     /// How `Lmm`'s records draw their VBLs: 0 down the tree, 1 flat (`Drawing`).
     pub media_drawing: u32,
+    /// This dispatch's lights of an all-pairs gather, `first_light .. first_light +
+    /// light_chunk` (`gather::LIGHTS_PER_DISPATCH`); chunks after the first add to the output.
+    pub first_light: u32,
+    pub light_chunk: u32,
 }
 
 /// `GatherParams::angular_pdf`: the paper's vertex values (at ω'_max).

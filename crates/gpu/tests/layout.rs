@@ -109,7 +109,9 @@ fn gather_structs_match() {
             vsl_tree_nodes,
             vbl_tree_nodes,
             poison,
-            media_drawing
+            media_drawing,
+            first_light,
+            light_chunk
         ]
     );
     check!(

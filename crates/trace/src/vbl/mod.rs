@@ -68,9 +68,10 @@
 //! collects a photon at the gather ray's point nearest to it, so per cone direction the light
 //! is attenuated to that point (the shadow ray's T(d) raised to t/d) and, where the blur's disc
 //! there reaches behind the receiver's surface (or, for a VPL's light seen from a medium, behind
-//! the receiver), divided by the disc's uncut fraction. Without it the blur lost 5–70 % next
-//! to surfaces at practical radii; with it the estimate matches quadrature at any R for a
-//! receiver near one plane, and still becomes the VRL/VPL estimate as R → 0.
+//! the receiver), divided by the disc's uncut fraction; the same at every wall within 2R of
+//! the VSL centre, which probe rays find ([`Walls`]). Without it the blur lost 5–70 % next to
+//! surfaces at practical radii; with it the estimate matches quadrature at any R for a
+//! receiver near a plane or an edge, and still becomes the VRL/VPL estimate as R → 0.
 //!
 //! The VSL integral uses `directions` directions uniform in the cone, one shifted rank-1
 //! lattice per evaluation (unbiased, evenly spread for any count). Every function returns the
