@@ -614,6 +614,53 @@ fn a_kernel_not_compiled_is_an_error() {
     assert!(err.to_string().contains("vbl_media.wgsl"), "{err}");
 }
 
+/// A record whose invocation loops past lavapipe's cap (20 000 lights drawn per record: each
+/// draw descends the tree and gathers a pair) must fail with `GpuError::LoopCap` there, not
+/// return the truncated sum; on an adapter without such a cap the same gather succeeds. Made
+/// to fail by writing the record's discard count whatever the check says (lavapipe then
+/// returned `Ok`).
+#[test]
+fn a_gather_past_the_drivers_loop_cap_is_an_error() {
+    let Some(_) = beamlight_gpu::device::for_tests() else {
+        return;
+    };
+    let ts = TraceScene::new(glossy_fog_box(false));
+    let backend = GpuBackend::open_for(&ts.scene, &GatherKernel::BEAMS).unwrap();
+    let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), 4, 4, 1, 0);
+    let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 8, 1, 0);
+    let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
+    let inputs = GatherInputs {
+        shading_points: &gather.shading_points,
+        media_segments: &gather.media_segments,
+        vpls: &lights.vpls,
+        vpl_walls: &[],
+        vrls: &lights.vrls,
+        paths: lights.paths,
+        pair_seed: streams::pair_seed(1),
+        pass: 0,
+        clamp: 0.0,
+        radius2: 0.04,
+        vbl: VblSettings::default(),
+        light_samples: 20_000,
+        media_light_samples: 20_000,
+        media_drawing: Drawing::Descent,
+        media_masses: &[],
+        vsl_tree: &[],
+        vbl_tree: &vbl_tree.nodes,
+        inject_nan: false,
+    };
+    let run = std::array::from_fn(|i| GatherKernel::ALL[i] == GatherKernel::VblSurface);
+    let result = backend
+        .gathers
+        .run(&backend.gpu, &backend.scene, &ts.scene, &inputs, run);
+    if backend.gpu.info.name.contains("llvmpipe") {
+        let err = result.expect_err("lavapipe must report its loop cap");
+        assert!(matches!(err, beamlight_gpu::GpuError::LoopCap { .. }), "{err}");
+    } else {
+        result.unwrap();
+    }
+}
+
 #[test]
 fn gathers_match_cpu_in_a_homogeneous_fog_box() {
     compare_gathers(
