@@ -95,9 +95,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // lavapipe (llvmpipe) caps the loop iterations of a whole invocation, all its loops
     // together (65 535 in Mesa 22), and past the cap leaves every loop after its first turn,
     // silently: BVH traversals then miss, cone integrals stop early. A loop whose count the
-    // compiler cannot know (two turns, unless the dispatch has one record) tells whether the
-    // cap was reached; −1 in w reports it (`PendingGathers::finish`).
-    let turns_wanted = min(params.records, 2u);
+    // compiler cannot know (two turns, from a uniform) tells whether the cap was reached; −1
+    // in w reports it (`PendingGathers::finish`).
+    let turns_wanted = min(params.records + 1u, 2u);
     var turns = 0u;
     for (var k = 0u; k < turns_wanted; k++) {
         turns++;
