@@ -14,9 +14,10 @@
 //! look for them; a surface counts when a probe meets it within 30° of head-on (an oblique hit
 //! on a curved surface would give a tangent plane that cuts into the free space beside it) and
 //! its plane passes within 2R of the centre (a surface closer than R/1000 along the probe,
-//! which a beam's ends lie on by rounding on either side, is passed over). A surface VSL (a VPL) probes along its own surface
-//! only: a plane parallel to its surface cannot cut its ellipse. Surfaces without a BSDF
-//! (invisible medium boundaries) are not walls: light and photons pass them.
+//! which a beam's ends lie on by rounding on either side, is passed over). A surface VSL (a
+//! VPL) probes along its own surface only: a plane parallel to its surface cannot cut its
+//! ellipse. Surfaces without a BSDF (invisible medium boundaries) are not walls: light and
+//! photons pass them.
 use crate::TraceScene;
 use glam::Vec3;
 
