@@ -335,9 +335,10 @@ impl Collection<'_> {
             }
             weight *= uncut_weight(height, reach2.sqrt());
         }
-        // Clamped into the grid's box: a point beyond a wall stands for the photons the centre's
-        // visibility counts there in place of the cut discs (see above), which scatter in the
-        // medium next to the wall.
+        // Clamped into the grid's box: a point beyond a wall the probes did not find (one
+        // tilted more than 30° off every axis) stands for the photons the centre's visibility
+        // counts there in place of the cut discs (see above), which scatter in the medium next
+        // to the wall.
         let density = self
             .medium
             .map_or(1.0, |m| m.density_near(self.origin + w * t.max(0.0)));
