@@ -49,7 +49,7 @@ fn main() {
     let r = r2.sqrt();
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), paths, seed, pass);
     let camera = trace_camera_paths(&ts, &CameraPathSettings::default(), size, size, seed ^ 0x55, pass);
-    let tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
+    let tree = LightTree::over_vbls(&ts.scene, &lights.vrls, r);
     let settings = VblSettings::default();
     let segs = &camera.media_segments;
     let step = (segs.len() / records.max(1)).max(1);

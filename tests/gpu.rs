@@ -310,7 +310,9 @@ fn compare_gathers_chunked(
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 32, seed, pass);
     let pair_seed = streams::pair_seed(seed);
     let vsl_tree = LightTree::over_vsls(&ts.scene, &lights.vpls);
-    let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
+    // The trees are proxies both twins draw by: built at the first radius (VBLs in a grid
+    // take the density within it), used at every one.
+    let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls, radii.first().copied().unwrap_or(0.0));
     // `light_samples` lights drawn per record from the trees (`media_light_samples` per camera
     // segment from the VBL tree), or 0 for all pairs.
     let run = |kernels: [GatherKernel; 4],
@@ -628,7 +630,7 @@ fn a_gather_past_the_drivers_loop_cap_is_an_error() {
     let backend = GpuBackend::open_for(&ts.scene, &GatherKernel::BEAMS).unwrap();
     let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), 4, 4, 1, 0);
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 8, 1, 0);
-    let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls);
+    let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls, 0.2);
     let inputs = GatherInputs {
         shading_points: &gather.shading_points,
         media_segments: &gather.media_segments,

@@ -2,7 +2,9 @@
 //! gather it replaces, which stays the oracle: on one pass's records and light set, the mean of
 //! the sampled estimate over independent selection and pair streams must equal the mean of the
 //! all-pairs estimate over independent pair streams, per component (Lss, Lsm, Lms, Lmm), in a
-//! fog box with Lambert walls, with glossy walls and g = 0.7, and in a lumpy (grid) medium.
+//! fog box with Lambert walls, with glossy walls and g = 0.7, in a lumpy (grid) medium and in
+//! a plume of dense smoke in clear air (the smoke box's case, where a VBL's leaf holds only the
+//! stretch where its light scatters, `VblStretch`).
 //!
 //! The tolerance is 4.5 combined standard errors of the two means (both estimated from the
 //! spread over streams), per channel of the image sum. It catches a probability that is not
@@ -14,13 +16,14 @@ use beamlight_scene::{Rgb, Scene, rng::pcg_hash};
 use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
+    light_paths::LightSegment,
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, VblStretch, vbl_weight},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
 };
 use common::*;
-use glam::DVec3;
+use glam::{DVec3, UVec3, Vec3};
 
 /// Mean and standard error of a set of per-stream totals, per channel.
 fn mean_se(v: &[DVec3]) -> (DVec3, DVec3) {
@@ -29,6 +32,9 @@ fn mean_se(v: &[DVec3]) -> (DVec3, DVec3) {
     let var = v.iter().map(|x| (*x - mean) * (*x - mean)).sum::<DVec3>() / (n - 1.0);
     (mean, (var / n).map(f64::sqrt))
 }
+
+/// The VBLs' and VSLs' radius in these tests.
+const R: f32 = 0.15;
 
 fn selection_matches_all_pairs(name: &str, scene: Scene) {
     let ts = TraceScene::new(scene);
@@ -39,10 +45,10 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
     let (vpls, vrls) = (&lights.vpls, &lights.vrls);
     let (sps, segs) = (&gather.shading_points, &gather.media_segments);
     let vsl_tree = LightTree::over_vsls(&ts.scene, vpls);
-    let vbl_tree = LightTree::over_vbls(&ts.scene, vrls);
+    let vbl_tree = LightTree::over_vbls(&ts.scene, vrls, R);
     vsl_tree.validate(vpls.len()).unwrap();
     vbl_tree.validate(vrls.len()).unwrap();
-    let r = 0.15f32;
+    let r = R;
     let r2 = r * r;
     let settings = VblSettings::default();
     let k = 2;
@@ -212,4 +218,102 @@ fn drawn_lights_match_all_pairs_in_the_furnace() {
     scene.render.width = 8;
     scene.render.height = 8;
     selection_matches_all_pairs("furnace", scene);
+}
+
+/// The fog box's medium made a plume: 16³ voxels over the box, `density` where the voxel's x
+/// index is in `xs` (the slab 0 ≤ x < 0.5 for 8..12), clear air elsewhere.
+fn plume(scene: &mut Scene, xs: std::ops::Range<u32>, density: f32) {
+    let res = UVec3::splat(16);
+    let values = (0..res.x * res.y * res.z)
+        .map(|i| if xs.contains(&(i % 16)) { density } else { 0.0 })
+        .collect();
+    scene.media[0].density = Some(beamlight_scene::medium::DensityGrid::new(
+        res,
+        Vec3::splat(-1.0),
+        Vec3::splat(1.0),
+        values,
+    ));
+}
+
+/// Dense smoke (4× the fog box's extinction) in a slab of clear air: most VBLs cross
+/// both, and their leaves hold the stretch in the smoke.
+#[test]
+fn drawn_lights_match_all_pairs_in_a_plume_of_smoke() {
+    let mut scene = fog_box(8, 8, false);
+    plume(&mut scene, 8..11, 4.0);
+    selection_matches_all_pairs("plume", scene);
+}
+
+/// A VBL's leaf in a density grid (`VblStretch::of`): its weight is the light it scatters, flux
+/// × ∫ σs(u) T(u) du, against that integral by a fine midpoint rule (100 000 steps; the march
+/// takes two a voxel, and along an axis the trilinear density is piecewise linear: 1 % is
+/// far above the march's error, 0.1 % here, and below what the densest σs and σt give,
+/// 1.32× here); the stretch lies in the slab that holds the medium; a VBL in clear air keeps
+/// a small positive weight; a homogeneous medium's leaf is the bound's, up to 8 mean free
+/// paths. Made to fail by weighting with the bound (`vbl_weight`) in the grid: 1.703 against
+/// 1.292.
+#[test]
+fn a_vbl_leaf_holds_the_stretch_where_its_light_scatters() {
+    let mut scene = fog_box(4, 4, false);
+    let homogeneous = scene.clone();
+    plume(&mut scene, 8..12, 4.0);
+    let m = &scene.media[0];
+    let grid = m.density.as_ref().unwrap();
+    let vbl = |x0: f32, len: f32| LightSegment {
+        origin: [x0, 0.1, 0.05],
+        length: len,
+        dir: [1.0, 0.0, 0.0],
+        medium: 0,
+        power: [2.0, 1.0, 0.5],
+        flags: 0,
+    };
+    let crossing = vbl(-0.9, 1.8);
+    let stretch = VblStretch::of(&scene, &crossing, 0.0);
+    let (sigma_s, sigma_t) = (m.sigma_s.max_element() as f64, m.sigma_t().max_element() as f64);
+    let steps = 100_000;
+    let h = crossing.length as f64 / steps as f64;
+    let (mut scattered, mut tau) = (0f64, 0f64);
+    for i in 0..steps {
+        let x = crossing.origin[0] as f64 + (i as f64 + 0.5) * h;
+        let d = grid.density(Vec3::new(x as f32, 0.1, 0.05)) as f64;
+        scattered += sigma_s * d * h * (-(tau + 0.5 * sigma_t * d * h)).exp();
+        tau += sigma_t * d * h;
+    }
+    let expected = 2.0 * scattered;
+    let ratio = stretch.weight as f64 / expected;
+    assert!(
+        (ratio - 1.0).abs() < 0.01,
+        "weight {} against {expected}",
+        stretch.weight
+    );
+    // The density is positive for x in (−0.0625, 0.5625): half a voxel beyond the slab's
+    // voxel centres, where the trilinear interpolation reaches 0.
+    let (a, b) = (-0.9 + stretch.start, -0.9 + stretch.end);
+    assert!(
+        a > -0.0625 - 0.06 && b < 0.5625 + 0.06 && b - a > 0.3,
+        "stretch {a}..{b}"
+    );
+    assert!(
+        stretch.sigma_t > 0.0 && stretch.sigma_t < sigma_t as f32 * 4.0,
+        "{stretch:?}"
+    );
+
+    let clear = VblStretch::of(&scene, &vbl(-0.9, 0.7), 0.0);
+    let (bound, _) = vbl_weight(&scene, &vbl(-0.9, 0.7));
+    assert!(
+        clear.weight > 0.0 && clear.weight <= 1e-3 * bound * 1.0001,
+        "{clear:?}, bound {bound}"
+    );
+
+    let (weight, sigma_t) = vbl_weight(&homogeneous, &crossing);
+    let plain = VblStretch::of(&homogeneous, &crossing, 0.1);
+    assert_eq!(
+        plain,
+        VblStretch {
+            start: 0.0,
+            end: crossing.length.min(8.0 / sigma_t),
+            sigma_t,
+            weight
+        }
+    );
 }

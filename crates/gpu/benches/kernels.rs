@@ -217,7 +217,7 @@ fn gathers(ts: &TraceScene, b: &GpuBackend) {
 fn selected_gathers(ts: &TraceScene, b: &GpuBackend, all: &GatherInputs) {
     let samples = 4;
     let vsl_tree = LightTree::over_vsls(&ts.scene, all.vpls);
-    let vbl_tree = LightTree::over_vbls(&ts.scene, all.vrls);
+    let vbl_tree = LightTree::over_vbls(&ts.scene, all.vrls, all.radius2.sqrt());
     let inputs = GatherInputs {
         light_samples: samples,
         media_light_samples: samples,

@@ -507,7 +507,7 @@ pub fn start_pass(
             pair_seed: streams::pair_seed(seed),
             pass,
             vsls: LightTree::over_vsls(&ts.scene, &lights.vpls),
-            vbls: LightTree::over_vbls(&ts.scene, &lights.vrls),
+            vbls: LightTree::over_vbls(&ts.scene, &lights.vrls, r),
         }),
         _ => None,
     };

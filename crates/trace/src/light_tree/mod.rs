@@ -4,9 +4,9 @@
 //! "Importance Sampling of Many Lights with Adaptive Tree Splitting", HPG 2018, and Vibert et
 //! al., "Scalable Virtual Ray Lights Rendering for Participating Media", EGSR 2019).
 //!
-//! **Nodes.** Every node holds the box of its lights (a VSL's centre, a VBL's segment clipped
-//! to its first 8 mean free paths) and the sum of their selection weights ([`vsl_weight`],
-//! [`vbl_weight`]: the flux a light can scatter). Children of an interior node sit next to
+//! **Nodes.** Every node holds the box of its lights (a VSL's centre, the stretch of a VBL
+//! where its light scatters, [`VblStretch`]) and the sum of their selection weights
+//! ([`vsl_weight`], [`VblStretch`]: the flux a light can scatter). Children of an interior node sit next to
 //! each other; a leaf holds one light, a segment's leaf also its σt and which diagonal of the
 //! box it runs along. [`LightTreeNode`] is `Pod` and mirrored in `shaders/lib/light_tree.wgsl`,
 //! whose descent is the twin of [`LightTree::sample`] (the same operations in the same order,
@@ -196,7 +196,7 @@ pub fn vsl_weight(scene: &Scene, vpl: &SurfaceVertex) -> f32 {
 
 /// The selection weight of a VBL and the σt it fades with: its flux times σs and the length
 /// over which it can scatter, (1 − e^(−σt L))/σt, for the medium's densest point (the whole
-/// length if σt is 0).
+/// length if σt is 0). A bound for a VBL in a density grid; [`VblStretch::of`] measures it.
 pub fn vbl_weight(scene: &Scene, vrl: &LightSegment) -> (f32, f32) {
     let m = &scene.media[vrl.medium as usize];
     let density = m.density.as_ref().map_or(1.0, |g| g.max_density());
@@ -207,6 +207,107 @@ pub fn vbl_weight(scene: &Scene, vrl: &LightSegment) -> (f32, f32) {
         positive_or_zero(Rgb::from(vrl.power).max_element() * sigma_s * reach),
         sigma_t,
     )
+}
+
+/// The stretch of a VBL where its light scatters, as its tree leaf holds it: from `start` to
+/// `end` along the VBL, its light fading like e^(−σt t) from `start`, and its selection weight
+/// (flux times ∫ σs T du, the light it can scatter, σs taken within the VBL's radius).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VblStretch {
+    pub start: f32,
+    pub end: f32,
+    pub sigma_t: f32,
+    pub weight: f32,
+}
+
+/// Steps of a VBL's march through a density grid per voxel it crosses ([`VblStretch::of`]).
+const STRETCH_STEPS_PER_VOXEL: f32 = 2.0;
+/// The most steps of that march (a longer VBL takes longer steps).
+const STRETCH_MAX_STEPS: usize = 256;
+/// The share of a VBL's scattered light left outside its stretch at either end.
+const STRETCH_TAIL: f32 = 1e-3;
+/// The weight a VBL in a grid keeps, as a share of its bound ([`vbl_weight`]), when the march
+/// finds less: between the march's points the grid may still hold a little medium, and a
+/// light left out of the tree would never be drawn.
+const STRETCH_FLOOR: f32 = 1e-3;
+
+impl VblStretch {
+    /// In a homogeneous medium the whole VBL up to its first [`CLIP_FREE_PATHS`] mean free
+    /// paths (beyond, less than e^(−8) of its light is left), fading with the medium's σt.
+    /// In a density grid the medium's densest σt would make a VBL crossing thin or empty
+    /// medium look as if its light were gone after a few centimetres, and so would its leaf:
+    /// in the smoke box a 4-unit VBL along a camera ray, a quarter of that ray's `Lmm`, was
+    /// drawn 33× less often than its share. So the VBL is marched through the grid at half
+    /// a voxel (the midpoint rule; at most [`STRETCH_MAX_STEPS`] steps): the stretch holds
+    /// all but [`STRETCH_TAIL`] of ∫ σs T du at either end, fading with the mean σt over it,
+    /// and the weight is that integral (at least [`STRETCH_FLOOR`] of the bound). σs is the
+    /// grid's within the pass's radius `r` of the VBL ([`beamlight_scene::medium::Medium::density_within`]): a VBL's
+    /// light scatters anywhere in its sphere of radius R, also from clear air next to smoke
+    /// (the extinction T is the VBL's own, along it).
+    pub fn of(scene: &Scene, vrl: &LightSegment, r: f32) -> VblStretch {
+        let m = &scene.media[vrl.medium as usize];
+        let (bound, sigma_t) = vbl_weight(scene, vrl);
+        let len = vrl.length;
+        let Some(grid) = m.density.as_ref().filter(|_| len > 0.0 && bound > 0.0) else {
+            let end = if sigma_t > 0.0 {
+                len.min(CLIP_FREE_PATHS / sigma_t)
+            } else {
+                len
+            };
+            return VblStretch {
+                start: 0.0,
+                end,
+                sigma_t,
+                weight: bound,
+            };
+        };
+        let (o, d) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
+        let voxel = ((grid.hi - grid.lo) / grid.res.as_vec3()).min_element();
+        let wanted = (len / voxel * STRETCH_STEPS_PER_VOXEL).ceil();
+        let steps = if wanted >= 1.0 {
+            (wanted as usize).min(STRETCH_MAX_STEPS)
+        } else {
+            1
+        };
+        let h = len / steps as f32;
+        let (sigma_s, sigma_tm) = (m.sigma_s.max_element(), m.sigma_t().max_element());
+        // Per step: the scattered light up to its end, and the optical depth at its end.
+        let mut cumulative = [0f32; STRETCH_MAX_STEPS];
+        let mut depth = [0f32; STRETCH_MAX_STEPS];
+        let (mut scattered, mut tau) = (0f32, 0f32);
+        for i in 0..steps {
+            let p = o + d * ((i as f32 + 0.5) * h);
+            let step_tau = sigma_tm * grid.density(p) * h;
+            // The step's light at its middle: e^(−τ) at its start times e^(−τ_step/2).
+            scattered += sigma_s * m.density_within(p, r) * h * (-(tau + 0.5 * step_tau)).exp();
+            tau += step_tau;
+            cumulative[i] = scattered;
+            depth[i] = tau;
+        }
+        let power = Rgb::from(vrl.power).max_element();
+        let weight = positive_or_zero(power * scattered).max(STRETCH_FLOOR * bound);
+        if !(scattered > 0.0 && scattered.is_finite()) {
+            // The march found no medium: the bound's geometry, at the floor's weight.
+            return VblStretch {
+                start: 0.0,
+                end: len.min(CLIP_FREE_PATHS / sigma_t.max(1e-30)),
+                sigma_t,
+                weight,
+            };
+        }
+        let first = cumulative[..steps].partition_point(|&c| c <= STRETCH_TAIL * scattered);
+        let last = cumulative[..steps]
+            .partition_point(|&c| c < (1.0 - STRETCH_TAIL) * scattered)
+            .min(steps - 1);
+        let (start, end) = (first as f32 * h, (last + 1) as f32 * h);
+        let before = if first > 0 { depth[first - 1] } else { 0.0 };
+        VblStretch {
+            start,
+            end: end.min(len),
+            sigma_t: positive_or_zero((depth[last] - before) / (end - start)),
+            weight,
+        }
+    }
 }
 
 /// ∫₀^L e^(−σt t) dt = (1 − e^(−σt L))/σt, L when σt L is tiny. (Written as the WGSL twin
@@ -290,19 +391,20 @@ impl LightTree {
         }))
     }
 
-    /// The tree over a pass's VBLs (VRLs inflated by the pass's radius).
-    pub fn over_vbls(scene: &Scene, vrls: &[LightSegment]) -> LightTree {
+    /// The tree over a pass's VBLs (VRLs inflated by the pass's radius `r`).
+    pub fn over_vbls(scene: &Scene, vrls: &[LightSegment], r: f32) -> LightTree {
         Self::build(vrls.iter().enumerate().map(|(i, v)| {
-            let (weight, sigma_t) = vbl_weight(scene, v);
-            // The bounds cover the first CLIP_FREE_PATHS mean free paths (beyond, less than
-            // e^(−8) of the light is left): a long segment's box would otherwise hold most of
-            // the scene and make every node around it look close to every receiver.
-            let reach = if sigma_t > 0.0 {
-                v.length.min(CLIP_FREE_PATHS / sigma_t)
-            } else {
-                v.length
-            };
-            let (a, b) = (Vec3::from(v.origin), Vec3::from(v.origin) + Vec3::from(v.dir) * reach);
+            // The bounds cover the stretch where the light scatters ([`VblStretch`]): a long
+            // segment's box would otherwise hold most of the scene and make every node
+            // around it look close to every receiver.
+            let VblStretch {
+                start,
+                end,
+                sigma_t,
+                weight,
+            } = VblStretch::of(scene, v, r);
+            let (o, d) = (Vec3::from(v.origin), Vec3::from(v.dir));
+            let (a, b) = (o + d * start, o + d * end);
             let diagonal = (a.x > b.x) as u32 | ((a.y > b.y) as u32) << 1 | ((a.z > b.z) as u32) << 2;
             TreeLight {
                 lo: a.min(b),
