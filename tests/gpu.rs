@@ -16,7 +16,7 @@ use beamlight_trace::{
     camera_paths::{CameraPathSettings, trace_camera_paths},
     components::Component,
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, flat_draw_receiver},
     streams::{self, GatherKind},
     vbl::{self, AngularPdf, VblSettings},
     vpl, vrl,
@@ -323,7 +323,7 @@ fn compare_gathers_chunked(
         // A flat draw's masses, weighed on the CPU as the renderer does.
         let masses = match media_drawing {
             Drawing::Flat => vbl_tree.group_masses(gather.media_segments.len(), radius2.max(0.0).sqrt(), |i| {
-                Receiver::along_segment(&ts.scene, &gather.media_segments[i])
+                flat_draw_receiver(&ts.scene, &gather.media_segments[i])
             }),
             Drawing::Descent => Vec::new(),
         };

@@ -15,10 +15,11 @@ mod common;
 use beamlight_scene::{Rgb, Scene, rng::pcg_hash};
 use beamlight_trace::{
     TraceScene,
+    camera_paths::MediaSegment,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::LightSegment,
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, VblStretch, vbl_weight},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, VblStretch, flat_draw_receiver, vbl_weight},
     streams::{self, GatherKind},
     vbl::{self, VblSettings},
 };
@@ -184,7 +185,7 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         segs,
         vrls.len(),
         &vbl_tree,
-        |seg| Receiver::along_segment(&ts.scene, seg),
+        |seg| flat_draw_receiver(&ts.scene, seg),
         (GatherKind::VrlToMedia, Drawing::Flat),
         r,
         k,
@@ -315,5 +316,40 @@ fn a_vbl_leaf_holds_the_stretch_where_its_light_scatters() {
             sigma_t,
             weight
         }
+    );
+}
+
+/// The flat draw weighs a camera segment's VBLs along the stretch of it where light scatters
+/// (`flat_draw_receiver`): in the slab of smoke for a segment crossing clear air into it, the
+/// whole segment in a homogeneous medium. Made to fail by returning the whole segment.
+#[test]
+fn a_flat_draw_weighs_vbls_where_the_camera_ray_meets_the_medium() {
+    let mut scene = fog_box(4, 4, false);
+    let homogeneous = scene.clone();
+    plume(&mut scene, 8..12, 4.0);
+    let seg = MediaSegment {
+        origin: [-0.9, 0.1, 0.05],
+        length: 1.8,
+        dir: [1.0, 0.0, 0.0],
+        medium: 0,
+        throughput: [1.0; 3],
+        pixel: 0,
+    };
+    let Receiver::Segment { o, len, .. } = flat_draw_receiver(&scene, &seg) else {
+        panic!("a camera segment's receiver is a segment");
+    };
+    // The density is positive for x in (−0.0625, 0.5625) (see above); light reaches the
+    // camera from the near side of the slab.
+    assert!(
+        o.x > -0.0625 - 0.06 && o.x + len < 0.5625 + 0.06 && len > 0.2,
+        "{o} + {len}"
+    );
+    let whole = |rx: Receiver| match rx {
+        Receiver::Segment { o, d, len, g } => (o, d, len, g),
+        _ => panic!("a camera segment's receiver is a segment"),
+    };
+    assert_eq!(
+        whole(flat_draw_receiver(&homogeneous, &seg)),
+        whole(Receiver::along_segment(&homogeneous, &seg))
     );
 }

@@ -23,7 +23,7 @@ use beamlight_trace::{
     components::Component,
     direct,
     light_paths::{Keep, LightTracerSettings, trace_light_paths},
-    light_tree::{Drawing, FLAT_GROUP, LightTree, Receiver},
+    light_tree::{Drawing, FLAT_GROUP, LightTree, flat_draw_receiver},
     streams,
     vbl::{self, VblSettings},
 };
@@ -531,11 +531,9 @@ pub fn start_pass(
     // CPU's gathers weigh theirs group by group.
     let clock = Instant::now();
     let media_masses = match &selection {
-        Some(sel) if run_kernels[GatherKernel::VblMedia as usize] && media_drawing == Drawing::Flat => {
-            sel.vbls.group_masses(segments.len(), sel.r, |i| {
-                Receiver::along_segment(&ts.scene, &segments[i])
-            })
-        }
+        Some(sel) if run_kernels[GatherKernel::VblMedia as usize] && media_drawing == Drawing::Flat => sel
+            .vbls
+            .group_masses(segments.len(), sel.r, |i| flat_draw_receiver(&ts.scene, &segments[i])),
         _ => Vec::new(),
     };
     if !media_masses.is_empty() {

@@ -10,7 +10,7 @@ use beamlight_trace::{
     direct,
     gather::GatherInputs,
     light_paths::{LightSegment, SurfaceVertex},
-    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, flat_draw_receiver},
     streams::{self, GatherKind},
     vbl::{self, VblSettings, Walls},
     vpl, vrl,
@@ -40,6 +40,10 @@ pub trait Record: Sync {
     const DIRECT_STREAM: u32;
     fn pixel(&self) -> u32;
     fn receiver(&self, scene: &Scene) -> Receiver;
+    /// The receiver a flat draw of ray-like lights weighs them for.
+    fn flat_receiver(&self, scene: &Scene) -> Receiver {
+        self.receiver(scene)
+    }
     /// Whether virtual lights are gathered here at all (not in a medium whose phase function
     /// is a near-delta, whose light the walks carry instead).
     fn gathers(&self, ts: &TraceScene) -> bool;
@@ -100,6 +104,10 @@ impl Record for MediaSegment {
 
     fn receiver(&self, scene: &Scene) -> Receiver {
         Receiver::along_segment(scene, self)
+    }
+
+    fn flat_receiver(&self, scene: &Scene) -> Receiver {
+        flat_draw_receiver(scene, self)
     }
 
     fn gathers(&self, ts: &TraceScene) -> bool {
@@ -257,7 +265,7 @@ impl PassGathers<'_> {
         }
         let mut seconds = 0.0;
         let masses = timed(&mut seconds, || {
-            sel.vbls.flat_masses(&chunk[0].receiver(&ts.scene), sel.r)
+            sel.vbls.flat_masses(&chunk[0].flat_receiver(&ts.scene), sel.r)
         });
         Some((masses, seconds))
     }

@@ -49,10 +49,11 @@
 //! that node contributes (so the probabilities sum to at most 1 and nothing is biased).
 //! The all-pairs gather stays the oracle (`tests/light_selection.rs`).
 use crate::{
+    camera_paths::MediaSegment,
     light_paths::{LightSegment, SurfaceVertex},
     streams::GatherKind,
 };
-use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, rng::Sampler};
+use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, medium::Medium, rng::Sampler};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 
@@ -237,77 +238,131 @@ impl VblStretch {
     /// In a density grid the medium's densest σt would make a VBL crossing thin or empty
     /// medium look as if its light were gone after a few centimetres, and so would its leaf:
     /// in the smoke box a 4-unit VBL along a camera ray, a quarter of that ray's `Lmm`, was
-    /// drawn 33× less often than its share. So the VBL is marched through the grid at half
-    /// a voxel (the midpoint rule; at most [`STRETCH_MAX_STEPS`] steps): the stretch holds
-    /// all but [`STRETCH_TAIL`] of ∫ σs T du at either end, fading with the mean σt over it,
-    /// and the weight is that integral (at least [`STRETCH_FLOOR`] of the bound). σs is the
-    /// grid's within the pass's radius `r` of the VBL ([`beamlight_scene::medium::Medium::density_within`]): a VBL's
-    /// light scatters anywhere in its sphere of radius R, also from clear air next to smoke
-    /// (the extinction T is the VBL's own, along it).
+    /// drawn 33× less often than its share. So the VBL is marched through the grid
+    /// ([`scattering_stretch`]): the leaf holds the stretch where its light scatters, fading
+    /// with the mean σt over it, and the weight is the light it scatters (at least
+    /// [`STRETCH_FLOOR`] of the bound), σs taken within the pass's radius `r`.
     pub fn of(scene: &Scene, vrl: &LightSegment, r: f32) -> VblStretch {
         let m = &scene.media[vrl.medium as usize];
         let (bound, sigma_t) = vbl_weight(scene, vrl);
         let len = vrl.length;
-        let Some(grid) = m.density.as_ref().filter(|_| len > 0.0 && bound > 0.0) else {
-            let end = if sigma_t > 0.0 {
+        let homogeneous = VblStretch {
+            start: 0.0,
+            end: if sigma_t > 0.0 {
                 len.min(CLIP_FREE_PATHS / sigma_t)
             } else {
                 len
-            };
-            return VblStretch {
-                start: 0.0,
-                end,
-                sigma_t,
-                weight: bound,
-            };
+            },
+            sigma_t,
+            weight: bound,
         };
+        if !(len > 0.0 && bound > 0.0) {
+            return homogeneous;
+        }
         let (o, d) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
-        let voxel = ((grid.hi - grid.lo) / grid.res.as_vec3()).min_element();
-        let wanted = (len / voxel * STRETCH_STEPS_PER_VOXEL).ceil();
-        let steps = if wanted >= 1.0 {
-            (wanted as usize).min(STRETCH_MAX_STEPS)
-        } else {
-            1
-        };
-        let h = len / steps as f32;
-        let (sigma_s, sigma_tm) = (m.sigma_s.max_element(), m.sigma_t().max_element());
-        // Per step: the scattered light up to its end, and the optical depth at its end.
-        let mut cumulative = [0f32; STRETCH_MAX_STEPS];
-        let mut depth = [0f32; STRETCH_MAX_STEPS];
-        let (mut scattered, mut tau) = (0f32, 0f32);
-        for i in 0..steps {
-            let p = o + d * ((i as f32 + 0.5) * h);
-            let step_tau = sigma_tm * grid.density(p) * h;
-            // The step's light at its middle: e^(−τ) at its start times e^(−τ_step/2).
-            scattered += sigma_s * m.density_within(p, r) * h * (-(tau + 0.5 * step_tau)).exp();
-            tau += step_tau;
-            cumulative[i] = scattered;
-            depth[i] = tau;
-        }
-        let power = Rgb::from(vrl.power).max_element();
-        let weight = positive_or_zero(power * scattered).max(STRETCH_FLOOR * bound);
-        if !(scattered > 0.0 && scattered.is_finite()) {
+        match scattering_stretch(m, o, d, len, r) {
+            None => homogeneous,
             // The march found no medium: the bound's geometry, at the floor's weight.
-            return VblStretch {
-                start: 0.0,
-                end: len.min(CLIP_FREE_PATHS / sigma_t.max(1e-30)),
-                sigma_t,
-                weight,
-            };
-        }
-        let first = cumulative[..steps].partition_point(|&c| c <= STRETCH_TAIL * scattered);
-        let last = cumulative[..steps]
-            .partition_point(|&c| c < (1.0 - STRETCH_TAIL) * scattered)
-            .min(steps - 1);
-        let (start, end) = (first as f32 * h, (last + 1) as f32 * h);
-        let before = if first > 0 { depth[first - 1] } else { 0.0 };
-        VblStretch {
-            start,
-            end: end.min(len),
-            sigma_t: positive_or_zero((depth[last] - before) / (end - start)),
-            weight,
+            Some((_, 0.0)) => VblStretch {
+                weight: STRETCH_FLOOR * bound,
+                ..homogeneous
+            },
+            Some((stretch, scattered)) => VblStretch {
+                start: stretch.start,
+                end: stretch.end,
+                sigma_t: stretch.sigma_t,
+                weight: positive_or_zero(Rgb::from(vrl.power).max_element() * scattered).max(STRETCH_FLOOR * bound),
+            },
         }
     }
+}
+
+/// The receiver a flat draw weighs a camera media segment's VBLs for
+/// ([`LightTree::flat_masses`]): in a density grid the segment clipped to the stretch where
+/// light can scatter towards the camera ([`scattering_stretch`]: σs at the camera point, as
+/// the estimator takes it), else the whole segment. The pair integral runs along the whole segment, so in the smoke
+/// box, whose camera rays cross metres of clear air before the plume, VBLs beside the clear
+/// air were weighed as if they lit it. Only the masses change (any positive ones keep the draw
+/// unbiased, and 10 % of each goes by flux).
+pub fn flat_draw_receiver(scene: &Scene, seg: &MediaSegment) -> Receiver {
+    let whole = Receiver::along_segment(scene, seg);
+    let m = &scene.media[seg.medium as usize];
+    let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+    match (whole, scattering_stretch(m, o, d, seg.length, 0.0)) {
+        (Receiver::Segment { g, .. }, Some((st, scattered))) if scattered > 0.0 && st.end > st.start => {
+            Receiver::Segment {
+                o: o + d * st.start,
+                d,
+                len: st.end - st.start,
+                g,
+            }
+        }
+        _ => whole,
+    }
+}
+
+/// A stretch of a line: from `start` to `end`, its light fading like e^(−σt t) from `start`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stretch {
+    pub start: f32,
+    pub end: f32,
+    pub sigma_t: f32,
+}
+
+/// Where light scatters along the line `o + d t`, t in [0, len], through medium `m`'s density
+/// grid (`None` without one), and ∫ σs T dt, σs taken within `r` of the line when `r` > 0
+/// ([`Medium::density_within`]: a VBL's light scatters anywhere in its sphere of radius R,
+/// also from clear air next to smoke), on it otherwise, and T the line's own transmittance
+/// from its start. A midpoint march at [`STRETCH_STEPS_PER_VOXEL`] steps a voxel
+/// (at most [`STRETCH_MAX_STEPS`]); the stretch holds all but [`STRETCH_TAIL`] of the integral
+/// at either end and fades with the mean σt over it. An integral of 0 (no medium met) comes
+/// with the whole line.
+pub fn scattering_stretch(m: &Medium, o: Vec3, d: Vec3, len: f32, r: f32) -> Option<(Stretch, f32)> {
+    let grid = m.density.as_ref()?;
+    let voxel = ((grid.hi - grid.lo) / grid.res.as_vec3()).min_element();
+    let wanted = (len / voxel * STRETCH_STEPS_PER_VOXEL).ceil();
+    let steps = if wanted >= 1.0 {
+        (wanted as usize).min(STRETCH_MAX_STEPS)
+    } else {
+        1
+    };
+    let h = len / steps as f32;
+    let (sigma_s, sigma_t) = (m.sigma_s.max_element(), m.sigma_t().max_element());
+    // Per step: the scattered light up to its end, and the optical depth at its end.
+    let mut cumulative = [0f32; STRETCH_MAX_STEPS];
+    let mut depth = [0f32; STRETCH_MAX_STEPS];
+    let (mut scattered, mut tau) = (0f32, 0f32);
+    for i in 0..steps {
+        let p = o + d * ((i as f32 + 0.5) * h);
+        let density = grid.density(p);
+        let step_tau = sigma_t * density * h;
+        let scattering = if r > 0.0 { m.density_within(p, r) } else { density };
+        // The step's light at its middle: e^(−τ) at its start times e^(−τ_step/2).
+        scattered += sigma_s * scattering * h * (-(tau + 0.5 * step_tau)).exp();
+        tau += step_tau;
+        cumulative[i] = scattered;
+        depth[i] = tau;
+    }
+    if !(scattered > 0.0 && scattered.is_finite()) {
+        let whole = Stretch {
+            start: 0.0,
+            end: len,
+            sigma_t: 0.0,
+        };
+        return Some((whole, 0.0));
+    }
+    let first = cumulative[..steps].partition_point(|&c| c <= STRETCH_TAIL * scattered);
+    let last = cumulative[..steps]
+        .partition_point(|&c| c < (1.0 - STRETCH_TAIL) * scattered)
+        .min(steps - 1);
+    let (start, end) = (first as f32 * h, ((last + 1) as f32 * h).min(len));
+    let before = if first > 0 { depth[first - 1] } else { 0.0 };
+    let stretch = Stretch {
+        start,
+        end,
+        sigma_t: positive_or_zero((depth[last] - before) / (end - start)),
+    };
+    Some((stretch, scattered))
 }
 
 /// ∫₀^L e^(−σt t) dt = (1 − e^(−σt L))/σt, L when σt L is tiny. (Written as the WGSL twin
