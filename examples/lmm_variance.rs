@@ -8,6 +8,7 @@
 //!
 //! C = Σ c_i, which this prints summed over the sample relative to Σ C² (so a draw's relative
 //! variance) for the tree's descent, beside the same for a flat draw by `flat_importance`
+//! (for the renderer's receiver, `flat_draw_receiver`)
 //! (`--media-light-draw flat`), for lights drawn uniformly, and for the ideal selection
 //! (p ∝ √(c² + v), the best for these pair samplers); the lights whose terms weigh most
 //! (`WORST`, 12), with the descent's choices on the way to one of them (`TRACE=segment
@@ -26,7 +27,7 @@ use beamlight_trace::{
     TraceScene,
     camera_paths::{CameraPathSettings, trace_camera_paths},
     light_paths::{LightTracerSettings, trace_light_paths},
-    light_tree::{LightTree, Receiver},
+    light_tree::{LightTree, Receiver, flat_draw_receiver},
     vbl::{VblSettings, vbl_to_media},
 };
 use std::time::Instant;
@@ -83,11 +84,11 @@ fn main() {
                 .map(|(i, w)| 0.9 * i / isum + 0.1 * w / wsum)
                 .collect()
         };
-        let flat = masses(&rx);
+        let flat = masses(&flat_draw_receiver(&ts.scene, seg));
         // The same masses shared by a run of SHARE consecutive records (neighbouring pixels
         // of a 4×4 tile): every record of the run draws by its first record's.
         let first = k - k % share;
-        let shared = masses(&Receiver::along_segment(&ts.scene, &segs[first]));
+        let shared = masses(&flat_draw_receiver(&ts.scene, &segs[first]));
         let mut shared_k = 0.0f64;
         let mut flat_k = 0.0f64;
         if std::env::var("TRACE").is_ok_and(|t| t.split(',').any(|x| x == format!("{k}"))) {

@@ -138,24 +138,28 @@ struct AngularIntegrand {
 // Both phase functions at the camera point x = o_c + t·d_c, in the direction towards y (the
 // VRL paper's vertex rule) or the one in the VSL's cone closest to ω'_max, times σ_s(x)'s
 // density.
-fn angular_value(f: AngularIntegrand, t: f32) -> f32 {
+fn angular_value(f: AngularIntegrand, t: f32) -> vec2<f32> {
+    let sigma_t = shaping_sigma_t(f.medium);
     if f.along_vrl != 0u {
-        return medium_density_near(f.medium, f.oc + f.dc * t);
+        let density = medium_density_near(f.medium, f.oc + f.dc * t);
+        return vec2<f32>(density, sigma_t * density);
     }
     let x = f.oc + f.dc * t;
+    // σ_s(x)'s grid density: no camera point where the medium is empty; and the light fades
+    // on its way to the camera.
+    let density = medium_density_near(f.medium, x);
     var w = normalize_or_zero(f.y - x);
     if params.angular_pdf != ANGULAR_PDF_VRL {
         let cone = vsl_cone(x, f.y, f.r2, -f.dc);
         if !cone.valid {
-            return 0.0;
+            return vec2<f32>(0.0, sigma_t * density);
         }
         w = cone.axis;
         if f.peak.w != 0.0 {
             w = closest_in_cone(cone, f.peak.xyz);
         }
     }
-    // σ_s(x)'s grid density: no camera point where the medium is empty.
-    return lobe_eval(f.phase_x, w).x * lobe_eval(f.phase_y, w).x * medium_density_near(f.medium, x);
+    return vec2<f32>(lobe_eval(f.phase_x, w).x * lobe_eval(f.phase_y, w).x * density, sigma_t * density);
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl

@@ -65,10 +65,11 @@ struct AngularIntegrand {
 // o_v + u·d_v, in the direction towards it (the VRL paper's vertex rule) or the one in the
 // VSL's cone where the BSDF peaks, times the largest of σ_s's density there and R away
 // (the light scatters at collection points up to R from y).
-fn angular_value(f: AngularIntegrand, u: f32) -> f32 {
+fn angular_value(f: AngularIntegrand, u: f32) -> vec2<f32> {
     let y = f.ov + f.dv * u;
-    // No VSL centre whose sphere holds no medium.
-    return surface_vertex_value(f.rx, f.phase, f.p, y, f.r2, f.rx.n) * medium_density_within(f.medium, y, sqrt(f.r2));
+    // No VSL centre whose sphere holds no medium; the VBL's light fades along it.
+    let value = surface_vertex_value(f.rx, f.phase, f.p, y, f.r2, f.rx.n) * medium_density_within(f.medium, y, sqrt(f.r2));
+    return vec2<f32>(value, shaping_sigma_t(f.medium) * medium_density_near(f.medium, y));
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/surface_record.wgsl

@@ -65,10 +65,12 @@ struct AngularIntegrand {
 // The VPL's BSDF (mean over colours) times the phase function at the camera point o + t·d,
 // in the direction towards q (the VRL paper's vertex rule) or the one in the VSL's cone where
 // the BSDF peaks, times σ_s(x)'s density.
-fn angular_value(f: AngularIntegrand, t: f32) -> f32 {
+fn angular_value(f: AngularIntegrand, t: f32) -> vec2<f32> {
     let x = f.o + f.d * t;
-    // σ_s(x)'s grid density: no camera point where the medium is empty.
-    return surface_vertex_value(f.light, f.phase, x, f.q, f.r2, -f.d) * medium_density_near(f.medium, x);
+    // σ_s(x)'s grid density: no camera point where the medium is empty; and the light fades
+    // on its way to the camera.
+    let density = medium_density_near(f.medium, x);
+    return vec2<f32>(surface_vertex_value(f.light, f.phase, x, f.q, f.r2, -f.d) * density, shaping_sigma_t(f.medium) * density);
 }
 
 // The hooks of the shared entry point (lib/gather_entry.wgsl) that lib/media_record.wgsl

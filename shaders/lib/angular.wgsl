@@ -4,7 +4,8 @@
 // The piecewise-linear angular PDFs of the VBL kernels (`beamlight_trace::vbl::angular`):
 // vertices equally spaced in the angle a segment subtends at a fixed point, and sampling by
 // them. The kernel says what the density follows: `AngularIntegrand` holds what it needs and
-// `angular_value(f, t)` is the (unnormalised) vertex value at line parameter t.
+// `angular_value(f, t)` is the (unnormalised) vertex value at line parameter t and the
+// extinction there, whose transmittance from the first vertex shapes the value (`Fading`).
 //
 // No table is stored: the vertex values are computed once to find the area and again, up to
 // the chosen segment, to walk the CDF, with the same f32 sums in the same order both times.
@@ -37,9 +38,35 @@ fn vertex_t(l: LineAngles, i: u32, k: u32, t0: f32, t1: f32) -> f32 {
     return clamp(line_t(l, l.theta0 + (l.theta1 - l.theta0) * f), t0, t1);
 }
 
-// The cleaned value of vertex i of k.
-fn angular_vertex(f: AngularIntegrand, l: LineAngles, i: u32, k: u32, t0: f32, t1: f32) -> f32 {
-    return pl_clean(angular_value(f, vertex_t(l, i, k, t0, t1)));
+// `vbl::angular::Fading`: the optical depth from the first vertex, by the trapezoid rule over
+// the vertices' extinctions in increasing t, and the last vertex's t and extinction.
+struct Fading {
+    depth: f32,
+    t: f32,
+    extinction: f32,
+    started: bool,
+}
+
+fn fading_start() -> Fading {
+    return Fading(0.0, 0.0, 0.0, false);
+}
+
+// `Fading::next`: e^(−τ) from the first vertex to the next one, at t with `extinction`.
+fn fade_next(fd: ptr<function, Fading>, t: f32, extinction: f32) -> f32 {
+    if (*fd).started {
+        (*fd).depth += 0.5 * ((*fd).extinction + extinction) * (t - (*fd).t);
+    }
+    (*fd).started = true;
+    (*fd).t = t;
+    (*fd).extinction = extinction;
+    return exp(-(*fd).depth);
+}
+
+// The cleaned, faded value of vertex i of k (the vertices taken in order from 0 with `fd`).
+fn angular_vertex(f: AngularIntegrand, l: LineAngles, i: u32, k: u32, t0: f32, t1: f32, fd: ptr<function, Fading>) -> f32 {
+    let t = vertex_t(l, i, k, t0, t1);
+    let v = angular_value(f, t);
+    return pl_clean(v.x * fade_next(fd, t, v.y));
 }
 
 // `vbl::sample_angular`: the line parameter t ∈ [t0, t1] by a piecewise-linear density in the
@@ -56,9 +83,10 @@ fn sample_angular(l: LineAngles, f: AngularIntegrand, t0: f32, t1: f32, scale: f
     let k = vertex_count(x1 - x0, scale);
     // First pass: the area in index units.
     var area = 0.0;
-    var previous = angular_vertex(f, l, 0u, k, t0, t1);
+    var fading = fading_start();
+    var previous = angular_vertex(f, l, 0u, k, t0, t1, &fading);
     for (var i = 1u; i < k; i++) {
-        let v = angular_vertex(f, l, i, k, t0, t1);
+        let v = angular_vertex(f, l, i, k, t0, t1, &fading);
         area += 0.5 * (previous + v);
         previous = v;
     }
@@ -96,13 +124,14 @@ fn sample_angular(l: LineAngles, f: AngularIntegrand, t0: f32, t1: f32, scale: f
         // first non-empty one has c_i = 0), or the last segment when all are empty.
         chosen = n - 2u;
         var found = false;
-        var v0 = angular_vertex(f, l, 0u, n, t0, t1) * scale_value + floor_value;
+        var walk = fading_start();
+        var v0 = angular_vertex(f, l, 0u, n, t0, t1, &walk) * scale_value + floor_value;
         var c = 0.0;
         for (var i = 0u; i + 1u < n; i++) {
             if c > a {
                 break;
             }
-            let v1 = angular_vertex(f, l, i + 1u, n, t0, t1) * scale_value + floor_value;
+            let v1 = angular_vertex(f, l, i + 1u, n, t0, t1, &walk) * scale_value + floor_value;
             let next = c + 0.5 * (v0 + v1);
             if next > c || (!found && i + 2u == n) {
                 chosen = i;

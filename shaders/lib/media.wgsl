@@ -51,6 +51,13 @@ fn grid_density(m: Medium, p: vec3<f32>) -> f32 {
     return c0 + (c1 - c0) * f.z;
 }
 
+// `vbl::shaping_sigma_t`: the extinction per unit of density that shapes the angular PDFs'
+// transmittance, the least σt over the channels.
+fn shaping_sigma_t(mi: u32) -> f32 {
+    let st = media[mi].sigma_s + media[mi].sigma_a;
+    return max(min(min(st.x, st.y), st.z), 0.0);
+}
+
 // `Medium::density_near`: the density with `p` clamped into the grid's box (continuous, for
 // shaping sampling densities alike on both sides of a rounding error at the box's faces).
 fn medium_density_near(mi: u32, p: vec3<f32>) -> f32 {

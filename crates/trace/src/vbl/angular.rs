@@ -29,8 +29,32 @@ pub(super) fn vertex_count(settings: &VblSettings, extent: f32, scale: f32) -> u
     }
 }
 
-/// Samples the line parameter by a piecewise-linear density in the angle (`value(t)` gives the
-/// vertex values). Returns `(t, pdf in t)`; pdf 0 when there is nothing to sample.
+/// The transmittance that shapes a PDF along its line: e^(−τ) from the first vertex to each
+/// next one, τ by the trapezoid rule over the vertices' extinctions, which come in increasing
+/// t (exact in a homogeneous medium). Only the PDF's shape: the estimators still take their
+/// transmittance by tracking, so a coarse τ costs variance, never bias. The WGSL twin is
+/// `fade_next` in `shaders/lib/angular.wgsl`.
+#[derive(Default)]
+pub(super) struct Fading {
+    depth: f32,
+    last: Option<(f32, f32)>,
+}
+
+impl Fading {
+    /// e^(−τ) from the first vertex to the next one, at `t` with extinction `extinction`.
+    pub(super) fn next(&mut self, t: f32, extinction: f32) -> f32 {
+        if let Some((t_last, e_last)) = self.last {
+            self.depth += 0.5 * (e_last + extinction) * (t - t_last);
+        }
+        self.last = Some((t, extinction));
+        (-self.depth).exp()
+    }
+}
+
+/// Samples the line parameter by a piecewise-linear density in the angle. `value(t)` gives a
+/// vertex's (unnormalised) value and the extinction σt at t; the density follows the value
+/// times the transmittance from the first vertex ([`Fading`]; an extinction of 0 leaves the
+/// value as it is). Returns `(t, pdf in t)`; pdf 0 when there is nothing to sample.
 pub(super) fn sample_angular(
     line: &LineAngles,
     t0: f32,
@@ -38,12 +62,15 @@ pub(super) fn sample_angular(
     settings: &VblSettings,
     scale: f32,
     u: f32,
-    mut value: impl FnMut(f32) -> f32,
+    mut value: impl FnMut(f32) -> (f32, f32),
 ) -> (f32, f32) {
     let k = vertex_count(settings, line.theta1 - line.theta0, scale);
     let mut values = [0.0f32; PIECEWISE_LINEAR_MAX_VERTICES];
+    let mut fading = Fading::default();
     for (i, v) in values.iter_mut().enumerate().take(k) {
-        *v = value(line.t(vertex_angle(line, i, k)).clamp(t0, t1));
+        let t = line.t(vertex_angle(line, i, k)).clamp(t0, t1);
+        let (value, extinction) = value(t);
+        *v = value * fading.next(t, extinction);
     }
     let pl = PiecewiseLinear::new(line.theta0, line.theta1, &values[..k], settings.uniform_share);
     let (theta, pdf_theta) = pl.sample(u);
@@ -65,21 +92,28 @@ mod tests {
     /// built here from `PiecewiseLinear::pdf` in θ (the piecewise-linear law itself has its own
     /// chi-square test in the scene crate), and each sample's pdf against the same density at
     /// its t. Catches a vertex at the wrong t, a missing or wrong dθ/dt, a sample mapped back
-    /// to the wrong t; made to fail once by dropping dθ/dt from the returned pdf, and once by
-    /// taking the vertex values 0.05 further along the line.
+    /// to the wrong t, a transmittance applied from the wrong end or with the wrong sign (a
+    /// third case fades by a constant σt); made to fail once by dropping dθ/dt from the
+    /// returned pdf, once by taking the vertex values 0.05 further along the line, and once
+    /// by flipping the sign of the trapezoid's step.
     #[test]
     fn angular_samples_follow_their_density() {
         let len = 3.0f32;
         let settings = VblSettings::default();
-        let value = |t: f32| (3.0 * t).sin().max(0.0) + if t > 2.2 { 0.3 } else { 0.0 };
-        for (name, apex) in [
-            ("apex over the segment", Vec3::new(1.2, 0.4, 0.0)),
-            ("apex beyond it", Vec3::new(-0.5, 0.2, 0.0)),
+        let shape = |t: f32| (3.0 * t).sin().max(0.0) + if t > 2.2 { 0.3 } else { 0.0 };
+        for (name, apex, sigma_t) in [
+            ("apex over the segment", Vec3::new(1.2, 0.4, 0.0), 0.0),
+            ("apex beyond it", Vec3::new(-0.5, 0.2, 0.0), 0.0),
+            ("fading", Vec3::new(1.2, 0.4, 0.0), 1.3),
         ] {
+            let value = |t: f32| (shape(t), sigma_t);
             let line = LineAngles::new(Vec3::ZERO, Vec3::X, 0.0, len, apex, 0.0);
             let k = vertex_count(&settings, line.theta1 - line.theta0, 0.0);
+            // A constant extinction fades the vertex values by e^(−σt t) exactly (the first
+            // vertex is at t = 0).
             let values: Vec<f32> = (0..k)
-                .map(|i| value(line.t(vertex_angle(&line, i, k)).clamp(0.0, len)))
+                .map(|i| line.t(vertex_angle(&line, i, k)).clamp(0.0, len))
+                .map(|t| shape(t) * (-sigma_t * t).exp())
                 .collect();
             let pl = PiecewiseLinear::new(line.theta0, line.theta1, &values, settings.uniform_share);
             let density = |t: f32| pl.pdf(line.theta(t)) as f64 * line.dtheta_dt(t) as f64;

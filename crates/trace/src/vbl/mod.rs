@@ -288,12 +288,15 @@ pub fn vbl_to_surface(
     // The integrand's sharpest lobe: its scale sets the PDF's vertex count, and wide cones
     // draw directions from it.
     let lobe = sharper(rx.lobe(), phase_lobe(hg, -dv, -1.0));
+    let sigma_t = shaping_sigma_t(m);
     let (u, pdf) = sample_angular(&line, 0.0, len, settings, lobe.1, s.next_1d(), |t| {
         let y = ov + dv * t;
         // No VSL centre whose sphere holds no medium (1 when homogeneous): its light scatters
         // at collection points up to R from y ([`Collection`]). Measured in the smoke box
         // (48², 12 s, two seeds): `Lsm`'s variance with the density at y alone 1.3× this.
-        surface_vertex_value(settings, &rx, phase, p, y, r2, rx.n) * m.density_within(y, r2.sqrt())
+        // The VBL's light fades along it.
+        let value = surface_vertex_value(settings, &rx, phase, p, y, r2, rx.n) * m.density_within(y, r2.sqrt());
+        (value, sigma_t * m.density_near(y))
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
@@ -329,6 +332,13 @@ pub fn vbl_to_surface(
     Rgb::from(sp.throughput) * Rgb::from(vrl.power) * sigma_s * t_vrl * l_vsl / pdf
 }
 
+/// The extinction that shapes the angular PDFs' transmittance ([`angular::Fading`]) in medium
+/// `m`, per unit of its grid's density: its least σt over the channels, so that no channel's
+/// light far along a line is drawn too rarely.
+fn shaping_sigma_t(m: &beamlight_scene::medium::Medium) -> f32 {
+    m.sigma_t().min_element().max(0.0)
+}
+
 /// Light a VBL scatters into a camera media segment (`Lmm`, eq. 10), per light path traced.
 pub fn vbl_to_media(
     ts: &TraceScene,
@@ -361,8 +371,10 @@ pub fn vbl_to_media(
             if subtends_no_angle(line.theta0, line.theta1) {
                 crate::vrl::sample_near_line(ov, dv, vrl.length, oc, dc, r, s.next_1d())
             } else {
+                let sigma_t = shaping_sigma_t(mv);
                 sample_angular(&line, 0.0, vrl.length, settings, 0.0, s.next_1d(), |u| {
-                    mv.density_near(ov + dv * u)
+                    let density = mv.density_near(ov + dv * u);
+                    (density, sigma_t * density)
                 })
             }
         }
@@ -381,17 +393,20 @@ pub fn vbl_to_media(
     // Stage 2: the camera point by a piecewise-linear PDF in the angle about y.
     let line = LineAngles::new(oc, dc, 0.0, seg.length, y, r);
     let lobe = sharper(phase_lobe(hv, -dv, -1.0), phase_lobe(hc, -dc, 1.0));
+    let sigma_t = shaping_sigma_t(mc);
     let (t, pdf_t) = sample_angular(&line, 0.0, seg.length, settings, lobe.1, s.next_1d(), |t| {
         let x = oc + dc * t;
+        // σ_s(x)'s grid density: no camera point where the medium is empty; and the light
+        // fades on its way to the camera.
+        let density = mc.density_near(x);
         let w = match settings.pdf {
             AngularPdf::Vrl => (y - x).normalize_or_zero(),
             AngularPdf::Vbl => match vsl_cone(x, y, r2, -dc) {
                 Some(cone) => peak.map_or(cone.axis, |pk| closest_in_cone(&cone, pk)),
-                None => return 0.0,
+                None => return (0.0, sigma_t * density),
             },
         };
-        // σ_s(x)'s grid density: no camera point where the medium is empty.
-        phase_x(w) * phase_y(w) * mc.density_near(x)
+        (phase_x(w) * phase_y(w) * density, sigma_t * density)
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf_t > 0.0) {
@@ -469,10 +484,16 @@ pub fn vsl_to_media_within(
     let phase = |w: Vec3| hg.eval(-d, w);
     let line = LineAngles::new(o, d, 0.0, seg.length, q, r2.sqrt());
     let lobe = sharper(light.lobe(), phase_lobe(hg, -d, 1.0));
+    let sigma_t = shaping_sigma_t(m);
     let (t, pdf) = sample_angular(&line, 0.0, seg.length, settings, lobe.1, s.next_1d(), |t| {
         let x = o + d * t;
-        // σ_s(x)'s grid density: no camera point where the medium is empty.
-        surface_vertex_value(settings, &light, phase, x, q, r2, -d) * m.density_near(x)
+        // σ_s(x)'s grid density: no camera point where the medium is empty; and the light
+        // fades on its way to the camera.
+        let density = m.density_near(x);
+        (
+            surface_vertex_value(settings, &light, phase, x, q, r2, -d) * density,
+            sigma_t * density,
+        )
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
@@ -609,7 +630,8 @@ mod tests {
                 let line = LineAngles::new(o, d, 0.0, len, c, 0.05 * scale);
                 let zeros = case % 3 == 0;
                 let (t, pdf) = sample_angular(&line, 0.0, len, &settings, 1.0, s.next_1d(), |t| {
-                    if zeros { 0.0 } else { 1.0 + (t / len).sin().abs() }
+                    // A thick medium: e^(−50) over the segment.
+                    (if zeros { 0.0 } else { 1.0 + (t / len).sin().abs() }, 50.0 / len)
                 });
                 assert!(
                     pdf.is_finite() && pdf > 0.0 && (0.0..=len).contains(&t),
