@@ -6,8 +6,8 @@
 //!
 //! **Nodes.** Every node holds the box of its lights (a VSL's centre, the stretch of a VBL
 //! where its light scatters, [`VblStretch`]) and the sum of their selection weights
-//! ([`vsl_weight`], [`VblStretch`]: the flux a light can scatter). Children of an interior node sit next to
-//! each other; a leaf holds one light, a segment's leaf also its σt and which diagonal of the
+//! ([`vsl_weight`], [`VblStretch`]: the flux a light can scatter). Children of an interior
+//! node sit next to each other; a leaf holds one light, a segment's leaf also its σt and which diagonal of the
 //! box it runs along. [`LightTreeNode`] is `Pod` and mirrored in `shaders/lib/light_tree.wgsl`,
 //! whose descent is the twin of [`LightTree::sample`] (the same operations in the same order,
 //! so the GPU picks the same lights as the CPU up to rounding ties).
@@ -246,7 +246,8 @@ impl VblStretch {
         let m = &scene.media[vrl.medium as usize];
         let (bound, sigma_t) = vbl_weight(scene, vrl);
         let len = vrl.length;
-        let homogeneous = VblStretch {
+        // The bound's stretch: exact in a homogeneous medium.
+        let by_bound = VblStretch {
             start: 0.0,
             end: if sigma_t > 0.0 {
                 len.min(CLIP_FREE_PATHS / sigma_t)
@@ -257,15 +258,15 @@ impl VblStretch {
             weight: bound,
         };
         if !(len > 0.0 && bound > 0.0) {
-            return homogeneous;
+            return by_bound;
         }
         let (o, d) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
         match scattering_stretch(m, o, d, len, r) {
-            None => homogeneous,
+            None => by_bound,
             // The march found no medium: the bound's geometry, at the floor's weight.
             Some((_, 0.0)) => VblStretch {
                 weight: STRETCH_FLOOR * bound,
-                ..homogeneous
+                ..by_bound
             },
             Some((stretch, scattered)) => VblStretch {
                 start: stretch.start,
@@ -280,10 +281,10 @@ impl VblStretch {
 /// The receiver a flat draw weighs a camera media segment's VBLs for
 /// ([`LightTree::flat_masses`]): in a density grid the segment clipped to the stretch where
 /// light can scatter towards the camera ([`scattering_stretch`]: σs at the camera point, as
-/// the estimator takes it), else the whole segment. The pair integral runs along the whole segment, so in the smoke
-/// box, whose camera rays cross metres of clear air before the plume, VBLs beside the clear
-/// air were weighed as if they lit it. Only the masses change (any positive ones keep the draw
-/// unbiased, and 10 % of each goes by flux).
+/// the estimator takes it), else the whole segment. The pair integral runs along the whole
+/// segment, so in the smoke box, whose camera rays cross metres of clear air before the
+/// plume, VBLs beside the clear air were weighed as if they lit it. Only the masses change
+/// (any positive ones keep the draw unbiased, and 10 % of each goes by flux).
 pub fn flat_draw_receiver(scene: &Scene, seg: &MediaSegment) -> Receiver {
     let whole = Receiver::along_segment(scene, seg);
     let m = &scene.media[seg.medium as usize];
