@@ -137,7 +137,8 @@ struct AngularIntegrand {
 
 // Both phase functions at the camera point x = o_c + t·d_c, in the direction towards y (the
 // VRL paper's vertex rule) or the one in the VSL's cone closest to ω'_max, times σ_s(x)'s
-// density.
+// density; and the extinction at x (stage 1: the density along the VRL and the extinction
+// there).
 fn angular_value(f: AngularIntegrand, t: f32) -> vec2<f32> {
     let sigma_t = shaping_sigma_t(f.medium);
     if f.along_vrl != 0u {

@@ -64,7 +64,7 @@ struct AngularIntegrand {
 // The receiver's BSDF (mean over colours) times the phase function at the VRL point
 // o_v + u·d_v, in the direction towards it (the VRL paper's vertex rule) or the one in the
 // VSL's cone where the BSDF peaks, times the largest of σ_s's density there and R away
-// (the light scatters at collection points up to R from y).
+// (the light scatters at collection points up to R from y); and the extinction at y.
 fn angular_value(f: AngularIntegrand, u: f32) -> vec2<f32> {
     let y = f.ov + f.dv * u;
     // No VSL centre whose sphere holds no medium; the VBL's light fades along it.

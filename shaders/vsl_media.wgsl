@@ -64,7 +64,7 @@ struct AngularIntegrand {
 
 // The VPL's BSDF (mean over colours) times the phase function at the camera point o + t·d,
 // in the direction towards q (the VRL paper's vertex rule) or the one in the VSL's cone where
-// the BSDF peaks, times σ_s(x)'s density.
+// the BSDF peaks, times σ_s(x)'s density; and the extinction at x.
 fn angular_value(f: AngularIntegrand, t: f32) -> vec2<f32> {
     let x = f.o + f.d * t;
     // σ_s(x)'s grid density: no camera point where the medium is empty; and the light fades

@@ -109,9 +109,14 @@ fn rel_rms(film: &Film, reference: &[DVec3]) -> f64 {
 }
 
 /// Four times the passes must lower the relative RMS error clearly (1/2 for variance alone;
-/// the blur's bias shrinks more slowly). Over three seeds: in a 6×6 image a single seed's
-/// error is set by a few heavy-tailed passes: its ratio ranged from 0.54 to 0.76 at the default
-/// settings (0.45–0.85 with 4 directions, 8 PDF vertices, 8 lights drawn); pooled, 0.60 (0.59).
+/// the blur's bias shrinks more slowly): the median over twelve seeds of each seed's ratio
+/// must be below 0.7. In a 6×6 image a seed's error is set by a few heavy-tailed passes, so
+/// any one seed's ratio ranges widely (0.35–2.8 over these seeds; one seed's error tripled
+/// between 12 and 48 passes) and a pooled RMS over a few seeds follows its outliers: over
+/// seeds 5–7 it was 0.70 with this code, over seeds 14–16 1.14 with the code before the
+/// transmittance-shaped angular PDFs. The median over these twelve was 0.58 before and 0.59
+/// after. It catches error that stops shrinking: made to fail (median 0.78) by tracing every
+/// pass's light paths with pass 0's streams, so that passes repeat the same virtual lights.
 #[test]
 fn vbl_error_shrinks_as_passes_go_on() {
     let (w, h) = (6u32, 6u32);
@@ -119,28 +124,29 @@ fn vbl_error_shrinks_as_passes_go_on() {
     let reference = render_pt(glossy_fog_box(w, h), 8192, 3, None).image();
     let reference: Vec<DVec3> = reference.pixels.iter().map(|p| p.as_dvec3()).collect();
     let p = 12u64;
-    let (mut sq_p, mut sq_4p) = (0.0, 0.0);
-    for seed in [5, 6, 7] {
-        let mut at_p = f64::NAN;
-        let result = render(&ts, &options(Method::Vbl, w, h, 4 * p, 64, seed), |progress| {
-            if progress.passes == p {
-                at_p = rel_rms(progress.film, &reference);
-            }
-            true
+    let mut ratios: Vec<f64> = (5..17)
+        .map(|seed| {
+            let mut at_p = f64::NAN;
+            let result = render(&ts, &options(Method::Vbl, w, h, 4 * p, 64, seed), |progress| {
+                if progress.passes == p {
+                    at_p = rel_rms(progress.film, &reference);
+                }
+                true
+            })
+            .unwrap();
+            let at_4p = rel_rms(&result.film, &reference);
+            eprintln!(
+                "seed {seed}: relative RMS error {at_p:.4} after {p} passes, {at_4p:.4} after {}",
+                4 * p
+            );
+            at_4p / at_p
         })
-        .unwrap();
-        let at_4p = rel_rms(&result.film, &reference);
-        eprintln!(
-            "seed {seed}: relative RMS error {at_p:.4} after {p} passes, {at_4p:.4} after {}",
-            4 * p
-        );
-        sq_p += at_p * at_p;
-        sq_4p += at_4p * at_4p;
-    }
-    let (at_p, at_4p) = (sq_p.sqrt(), sq_4p.sqrt());
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    let median = 0.5 * (ratios[5] + ratios[6]);
     assert!(
-        at_4p < 0.7 * at_p,
-        "error must shrink: {at_p} → {at_4p} (over the seeds)"
+        median < 0.7,
+        "error must shrink: median ratio {median} over the seeds ({ratios:?})"
     );
 }
 
