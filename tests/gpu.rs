@@ -13,9 +13,9 @@ use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, scene::MediumInterface};
 use beamlight_testkit::gltf_writer::shapes;
 use beamlight_trace::{
     TraceScene,
-    camera_paths::{CameraPathSettings, trace_camera_paths},
+    camera_paths::{CameraPathSettings, GatherSet, trace_camera_paths},
     components::Component,
-    light_paths::{LightTracerSettings, trace_light_paths},
+    light_paths::{LightSet, LightTracerSettings, trace_light_paths},
     light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, flat_draw_receiver},
     streams::{self, GatherKind},
     vbl::{self, AngularPdf, VblSettings},
@@ -569,6 +569,31 @@ fn per_drawn<R: Sync>(
         .collect()
 }
 
+/// One pass's gather inputs for every pair of its records and lights (no light selection, no
+/// walls, no clamp, seed 1, pass 0) at squared radius `radius2`.
+fn all_pairs_inputs<'a>(gather: &'a GatherSet, lights: &'a LightSet, radius2: f32) -> GatherInputs<'a> {
+    GatherInputs {
+        shading_points: &gather.shading_points,
+        media_segments: &gather.media_segments,
+        vpls: &lights.vpls,
+        vpl_walls: &[],
+        vrls: &lights.vrls,
+        paths: lights.paths,
+        pair_seed: streams::pair_seed(1),
+        pass: 0,
+        clamp: 0.0,
+        radius2,
+        vbl: VblSettings::default(),
+        light_samples: 0,
+        media_light_samples: 0,
+        media_drawing: Drawing::Descent,
+        media_masses: &[],
+        vsl_tree: &[],
+        vbl_tree: &[],
+        inject_nan: false,
+    }
+}
+
 /// A GPU opened for one method's kernels (a render compiles only its own) refuses to run
 /// another's: an error naming the kernel, not a component left black. Made to fail by
 /// letting `submit` skip a kernel it has not compiled (the old behaviour): `Ok` with zeros.
@@ -582,26 +607,7 @@ fn a_kernel_not_compiled_is_an_error() {
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, 1, 0);
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 8, 1, 0);
-    let inputs = GatherInputs {
-        shading_points: &gather.shading_points,
-        media_segments: &gather.media_segments,
-        vpls: &lights.vpls,
-        vpl_walls: &[],
-        vrls: &lights.vrls,
-        paths: lights.paths,
-        pair_seed: streams::pair_seed(1),
-        pass: 0,
-        clamp: 0.0,
-        radius2: 0.01,
-        vbl: VblSettings::default(),
-        light_samples: 0,
-        media_light_samples: 0,
-        media_drawing: Drawing::Descent,
-        media_masses: &[],
-        vsl_tree: &[],
-        vbl_tree: &[],
-        inject_nan: false,
-    };
+    let inputs = all_pairs_inputs(&gather, &lights, 0.01);
     let run = |k: GatherKernel| {
         backend.gathers.run(
             &backend.gpu,
@@ -632,24 +638,10 @@ fn a_gather_past_the_drivers_loop_cap_is_an_error() {
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 8, 1, 0);
     let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls, 0.2);
     let inputs = GatherInputs {
-        shading_points: &gather.shading_points,
-        media_segments: &gather.media_segments,
-        vpls: &lights.vpls,
-        vpl_walls: &[],
-        vrls: &lights.vrls,
-        paths: lights.paths,
-        pair_seed: streams::pair_seed(1),
-        pass: 0,
-        clamp: 0.0,
-        radius2: 0.04,
-        vbl: VblSettings::default(),
         light_samples: 20_000,
         media_light_samples: 20_000,
-        media_drawing: Drawing::Descent,
-        media_masses: &[],
-        vsl_tree: &[],
         vbl_tree: &vbl_tree.nodes,
-        inject_nan: false,
+        ..all_pairs_inputs(&gather, &lights, 0.04)
     };
     let run = std::array::from_fn(|i| GatherKernel::ALL[i] == GatherKernel::VblSurface);
     let result = backend
