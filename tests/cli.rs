@@ -531,6 +531,51 @@ impl Drop for KillOnDrop {
 /// second), so only a hung render fails them.
 const EVENT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
 
+/// `vrl` in a near-delta medium is unbiased but its light sits in rare spikes (README): the
+/// user is told, naming the medium, and not told for `vbl` or for ordinary media.
+#[test]
+fn vrl_in_a_sharp_medium_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let gltf = root().join("assets/scenes/furnace.gltf");
+    let scene = |g: f32| {
+        let toml = dir.path().join(format!("sharp_{g}.toml"));
+        std::fs::write(
+            &toml,
+            format!(
+                "gltf = {:?}\n[[media]]\nname = \"needle\"\nregion = \"global\"\nsigma_s = [1.0, 1.0, 1.0]\nsigma_a = [0.0, 0.0, 0.0]\ng = {g}\n",
+                gltf.to_str().unwrap()
+            ),
+        )
+        .unwrap();
+        toml
+    };
+    let warned = |g: f32, method: &str| {
+        let (toml, out) = (scene(g), dir.path().join("s.exr"));
+        let o = beamlight(&[
+            "render",
+            toml.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            method,
+            "--passes",
+            "1",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "--backend",
+            "cpu",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o).contains("warning") && stderr(&o).contains("'needle' has a near-delta phase function")
+    };
+    assert!(warned(0.999, "vrl"));
+    assert!(warned(-0.97, "vrl-clamped"));
+    assert!(!warned(0.999, "vbl"));
+    assert!(!warned(0.9, "vrl"));
+}
+
 #[test]
 fn a_scene_without_lights_is_reported() {
     let dir = tempfile::tempdir().unwrap();

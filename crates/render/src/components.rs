@@ -3,7 +3,7 @@
 //! The many-light methods render the image as a sum of separately accumulated components; a
 //! component a scene cannot produce is skipped entirely (no light tracing, no gather).
 use beamlight_scene::{Scene, bsdf::Bsdf};
-pub use beamlight_trace::components::Component;
+pub use beamlight_trace::components::{Component, is_sharp};
 
 /// What the scene contains that decides which components can be non-zero.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
