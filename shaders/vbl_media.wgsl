@@ -57,8 +57,11 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     let dv = vrl.dir;
     let oc = seg.origin;
     let dc = seg.dir;
-    if !(vrl.length > 0.0 && seg.length > 0.0) {
-        return vec3<f32>(0.0);
+    if degenerate_length(vrl.length) {
+        return degenerate_estimate(vrl.length);
+    }
+    if degenerate_length(seg.length) {
+        return degenerate_estimate(seg.length);
     }
     // Stage 1: the VSL centre ∝ 1/dist(y(u), camera line)², the distance floored at R; in a
     // medium with a density grid, times σ_s(y)'s density, by a piecewise-linear density in
@@ -75,7 +78,7 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     let u = stage1.x;
     let pdf_u = stage1.y;
     if !(pdf_u > 0.0 && finite_f32(pdf_u)) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let y = ov + dv * u;
     // ω' is the gather direction at the camera point (towards the VSL centre).
@@ -96,7 +99,7 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     let pdf_t = stage2.y;
     let rnd = cone_random(s);
     if !(pdf_t > 0.0) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let x = oc + dc * t;
     let cone = vsl_cone(x, y, r2, -dc);

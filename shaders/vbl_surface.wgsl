@@ -16,8 +16,8 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     // At the VSL centre the light travels along dv and leaves towards the receiver (−ω').
     let phase = phase_lobe(m.g, -dv, -1.0);
     let len = vrl.length;
-    if !(len > 0.0) {
-        return vec3<f32>(0.0);
+    if degenerate_length(len) {
+        return degenerate_estimate(len);
     }
     let line = line_angles(ov, dv, 0.0, len, p, sqrt(r2));
     let lobe = sharper(rx, phase);
@@ -27,7 +27,7 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     let pdf = sample.y;
     let rnd = cone_random(s);
     if !(pdf > 0.0) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let y = ov + dv * u;
     let cone = vsl_cone(p, y, r2, rx.n);

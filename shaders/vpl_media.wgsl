@@ -9,11 +9,14 @@ fn vpl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, s: ptr<funct
     if !gathers_in_medium(m.g) {
         return vec3<f32>(0.0);
     }
+    if degenerate_length(seg.length) {
+        return degenerate_estimate(seg.length);
+    }
     let sample = equiangular(seg.origin, seg.dir, 0.0, seg.length, vpl.pos, next_1d(s));
     let t = sample.x;
     let pdf = sample.y;
     if !(pdf > 0.0) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let x = seg.origin + seg.dir * t;
     let to = vpl.pos - x;

@@ -25,18 +25,24 @@ fn vrl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     if !gathers_in_medium(mc.g) {
         return vec3<f32>(0.0);
     }
+    if degenerate_length(vrl.length) {
+        return degenerate_estimate(vrl.length);
+    }
+    if degenerate_length(seg.length) {
+        return degenerate_estimate(seg.length);
+    }
     let stage1 = sample_near_line(vrl.origin, vrl.dir, vrl.length, seg.origin, seg.dir, next_1d(s));
     let u = stage1.x;
     let pdf_u = stage1.y;
     if !(pdf_u > 0.0) || !is_finite(pdf_u) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let y = vrl.origin + vrl.dir * u;
     let stage2 = equiangular(seg.origin, seg.dir, 0.0, seg.length, y, next_1d(s));
     let t = stage2.x;
     let pdf_t = stage2.y;
     if !(pdf_t > 0.0) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let x = seg.origin + seg.dir * t;
     let v = y - x;

@@ -6,11 +6,14 @@
 
 fn vrl_to_surface(sp: ShadingPoint, f_sp: Bsdf, vrl: LightSegment, s: ptr<function, Sampler>) -> vec3<f32> {
     let m = media[vrl.medium];
+    if degenerate_length(vrl.length) {
+        return degenerate_estimate(vrl.length);
+    }
     let sample = equiangular(vrl.origin, vrl.dir, 0.0, vrl.length, sp.pos, next_1d(s));
     let u = sample.x;
     let pdf = sample.y;
     if !(pdf > 0.0) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let y = vrl.origin + vrl.dir * u;
     let v = y - sp.pos;

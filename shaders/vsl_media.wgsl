@@ -16,7 +16,10 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, walls: Walls
     let o = seg.origin;
     let d = seg.dir;
     let q = vpl.pos;
-    if !(seg.length > 0.0) || f_vpl.kind == BSDF_NONE {
+    if degenerate_length(seg.length) {
+        return degenerate_estimate(seg.length);
+    }
+    if f_vpl.kind == BSDF_NONE {
         return vec3<f32>(0.0);
     }
     let light = surface_lobe(f_vpl, vpl.normal, vpl.wi, -1.0);
@@ -29,7 +32,7 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, walls: Walls
     let pdf = sample.y;
     let rnd = cone_random(s);
     if !(pdf > 0.0) {
-        return vec3<f32>(0.0);
+        return failed_estimate();
     }
     let x = o + d * t;
     let cone = vsl_cone(x, q, r2, -d);

@@ -396,19 +396,174 @@ fn degenerate_virtual_light_geometry_stays_finite() {
         );
         assert!(sane(a) && sane(b), "VPL at the shading point: {a} {b}");
     }
+    // A pair whose sampling density fails (a VPL or a VRL at infinity, a VRL of NaN length, as
+    // a broken light path would leave them): every estimator returns NaN, which the gathers' `admit`
+    // counts, never a silent zero (`failed::FAILED_ESTIMATE`; made to fail once by returning
+    // zero again). The GPU kernels must count the same pairs, below.
+    let far_vpl = SurfaceVertex {
+        pos: [f32::INFINITY, 0.0, 0.0],
+        ..vpls[0]
+    };
+    let far_vrl = vrl_at(Vec3::new(f32::INFINITY, 0.0, 0.0), Vec3::X, 1.0);
+    let nan_vrl = vrl_at(Vec3::new(0.0, -0.5, 0.0), Vec3::Y, f32::NAN);
+    let r2 = 0.01;
+    let failed = [
+        vpl::vpl_to_media(&ts, &segments[0], &far_vpl, 0.0, &mut s(GatherKind::VplToMedia, 0, 0)),
+        vbl::vsl_to_media(
+            &ts,
+            &segments[0],
+            &far_vpl,
+            r2,
+            &settings,
+            &mut s(GatherKind::VplToMedia, 0, 0),
+        ),
+        vrl::vrl_to_surface(&ts, &sp, &far_vrl, 0.0, &mut s(GatherKind::VrlToSurface, 0, 0)),
+        vbl::vbl_to_surface(
+            &ts,
+            &sp,
+            &far_vrl,
+            r2,
+            &settings,
+            &mut s(GatherKind::VrlToSurface, 0, 0),
+        ),
+        vrl::vrl_to_media(&ts, &segments[0], &nan_vrl, 0.0, &mut s(GatherKind::VrlToMedia, 0, 0)),
+        vbl::vbl_to_media(
+            &ts,
+            &segments[0],
+            &nan_vrl,
+            r2,
+            &settings,
+            &mut s(GatherKind::VrlToMedia, 0, 0),
+        ),
+    ];
+    for (k, v) in failed.iter().enumerate() {
+        assert!(v.is_nan(), "estimator {k}: {v}, a failed estimate not counted");
+    }
+    // What the GPU must count for these lights against the shading point and segment 0: the
+    // CPU twins' NaNs per kernel, over every pair (all-pairs gathers, one stream each).
+    let (failing_vpls, failing_vrls) = ([far_vpl], [far_vrl, nan_vrl]);
+    let nans = |f: &dyn Fn(usize) -> Rgb, n: usize| (0..n).filter(|&j| f(j).is_nan()).count() as u64;
+    let pair_stream = |kind, j| s(kind, 0, j);
+    let expected: [u64; KERNELS] = [
+        nans(
+            &|j| {
+                vpl::vpl_to_surface(
+                    &ts,
+                    &sp,
+                    &failing_vpls[j],
+                    0.0,
+                    &mut pair_stream(GatherKind::VplToSurface, j),
+                )
+            },
+            1,
+        ),
+        nans(
+            &|j| {
+                vrl::vrl_to_surface(
+                    &ts,
+                    &sp,
+                    &failing_vrls[j],
+                    0.0,
+                    &mut pair_stream(GatherKind::VrlToSurface, j),
+                )
+            },
+            2,
+        ),
+        nans(
+            &|j| {
+                vpl::vpl_to_media(
+                    &ts,
+                    &segments[0],
+                    &failing_vpls[j],
+                    0.0,
+                    &mut pair_stream(GatherKind::VplToMedia, j),
+                )
+            },
+            1,
+        ),
+        nans(
+            &|j| {
+                vrl::vrl_to_media(
+                    &ts,
+                    &segments[0],
+                    &failing_vrls[j],
+                    0.0,
+                    &mut pair_stream(GatherKind::VrlToMedia, j),
+                )
+            },
+            2,
+        ),
+        nans(
+            &|j| {
+                vbl::vsl_to_surface(
+                    &ts,
+                    &sp,
+                    &failing_vpls[j],
+                    r2,
+                    &settings,
+                    &mut pair_stream(GatherKind::VplToSurface, j),
+                )
+            },
+            1,
+        ),
+        nans(
+            &|j| {
+                vbl::vbl_to_surface(
+                    &ts,
+                    &sp,
+                    &failing_vrls[j],
+                    r2,
+                    &settings,
+                    &mut pair_stream(GatherKind::VrlToSurface, j),
+                )
+            },
+            2,
+        ),
+        nans(
+            &|j| {
+                vbl::vsl_to_media(
+                    &ts,
+                    &segments[0],
+                    &failing_vpls[j],
+                    r2,
+                    &settings,
+                    &mut pair_stream(GatherKind::VplToMedia, j),
+                )
+            },
+            1,
+        ),
+        nans(
+            &|j| {
+                vbl::vbl_to_media(
+                    &ts,
+                    &segments[0],
+                    &failing_vrls[j],
+                    r2,
+                    &settings,
+                    &mut pair_stream(GatherKind::VrlToMedia, j),
+                )
+            },
+            2,
+        ),
+    ];
+    eprintln!("failed estimates per kernel (CPU): {expected:?}");
     // The GPU kernels on the same records.
     let Some(_) = beamlight_gpu::device::for_tests() else {
         return;
     };
     let backend = GpuBackend::open(&ts.scene).unwrap();
-    for r2 in [0.0f32, 0.01] {
-        let vpl_walls = vbl::vpl_walls_all(&ts, &vpls, r2);
+    // Every kernel, all pairs, on the GPU.
+    let gather_all_pairs = |sp: &ShadingPoint,
+                            segments: &[MediaSegment],
+                            (vpls, vpl_walls): (&[SurfaceVertex], &[vbl::Walls]),
+                            vrls: &[LightSegment],
+                            r2: f32| {
         let inputs = GatherInputs {
-            shading_points: std::slice::from_ref(&sp),
-            media_segments: &segments,
-            vpls: &vpls,
-            vpl_walls: &vpl_walls,
-            vrls: &vrls,
+            shading_points: std::slice::from_ref(sp),
+            media_segments: segments,
+            vpls,
+            vpl_walls,
+            vrls,
             paths: 1,
             pair_seed,
             pass: 0,
@@ -423,10 +578,14 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             vbl_tree: &[],
             inject_nan: false,
         };
-        let g = backend
+        backend
             .gathers
             .run(&backend.gpu, &backend.scene, &ts.scene, &inputs, [true; KERNELS])
-            .unwrap();
+            .unwrap()
+    };
+    for r2 in [0.0f32, 0.01] {
+        let vpl_walls = vbl::vpl_walls_all(&ts, &vpls, r2);
+        let g = gather_all_pairs(&sp, &segments, (&vpls, &vpl_walls), &vrls, r2);
         for k in GatherKernel::ALL {
             for v in &g.results[k as usize] {
                 assert!(sane(*v), "{} with R² {r2}: {v}", k.name());
@@ -439,6 +598,12 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             );
         }
     }
+    let vpl_walls = vbl::vpl_walls_all(&ts, &failing_vpls, r2);
+    let g = gather_all_pairs(&sp, &segments[..1], (&failing_vpls, &vpl_walls), &failing_vrls, r2);
+    assert_eq!(
+        g.discarded, expected,
+        "failed estimates counted per kernel, GPU against CPU"
+    );
 }
 
 /// The same scene scaled by 10⁻³ and 10⁵ (media by the inverse) gives the same image with the

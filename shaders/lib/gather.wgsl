@@ -140,6 +140,26 @@ fn admit(v: vec3<f32>, discarded: ptr<function, u32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// `failed::FAILED_ESTIMATE`: a light's estimate when it cannot be made (a density that came out
+// zero or not finite, a segment of negative, infinite or NaN length): NaN, which `admit` counts.
+fn failed_estimate() -> vec3<f32> {
+    return vec3<f32>(bitcast<f32>(0x7fc00000u));
+}
+
+// `failed::degenerate_length`: whether a segment of this length ends a pair's estimate before
+// sampling, and `degenerate_estimate` what with: zero for no length, the failed estimate for a
+// negative, infinite or NaN one.
+fn degenerate_length(len: f32) -> bool {
+    return !(len > 0.0 && finite_f32(len));
+}
+
+fn degenerate_estimate(len: f32) -> vec3<f32> {
+    if len == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return failed_estimate();
+}
+
 // `record_gathers::injected`: the record's estimate, or the injected NaN for the pass's first record
 // (`GatherParams::poison`).
 fn injected(v: vec3<f32>, record: u32) -> vec3<f32> {

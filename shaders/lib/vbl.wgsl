@@ -9,9 +9,9 @@
 // or an HG lobe), so it is passed as the two factors, and each kernel computes the vertex
 // values of its angular PDF in its own loop.
 
-// `vbl::clean_r2`: NaN or negative → 0.
+// `vbl::clean_r2`: NaN or negative → 0, ∞ → the largest finite value.
 fn clean_r2(r2: f32) -> f32 {
-    return select(0.0, r2, r2 > 0.0);
+    return select(0.0, min(r2, 3.4028235e38), r2 > 0.0);
 }
 
 // `vbl::Cone`: the gather directions from a receiver whose rays pass within R of a VSL centre.

@@ -5,6 +5,8 @@ use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
     context::MAX_CROSSINGS,
+    failed::FAILED_ESTIMATE,
+    failed::degenerate_length,
     media,
 };
 use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling};
@@ -63,6 +65,9 @@ pub fn direct_in_medium(ts: &TraceScene, seg: &MediaSegment, s: &mut Sampler) ->
     let scene = &ts.scene;
     let m = &scene.media[seg.medium as usize];
     let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+    if let Some(v) = degenerate_length(seg.length) {
+        return v;
+    }
     let Some(lp) = ts.lights.sample_point(scene, s) else {
         return Rgb::ZERO;
     };
@@ -75,7 +80,7 @@ pub fn direct_in_medium(ts: &TraceScene, seg: &MediaSegment, s: &mut Sampler) ->
     };
     let u_phase = s.next_2d();
     if !(pdf_t > 0.0) || !pdf_t.is_finite() {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let x = o + d * t;
     let hg = HenyeyGreenstein { g: m.g };

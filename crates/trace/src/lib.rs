@@ -6,6 +6,7 @@ pub mod caustics;
 pub mod components;
 pub mod context;
 pub mod direct;
+pub mod failed;
 pub mod gather;
 pub mod geometry;
 pub mod light_paths;

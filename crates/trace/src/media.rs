@@ -73,7 +73,8 @@ pub fn extent(m: &Medium, o: Vec3, tmax: f32) -> f32 {
                 .into_iter()
                 .filter(|&v| v > 0.0)
                 .fold(f32::INFINITY, f32::min);
-            13.8 / thinnest
+            // At most f32::MAX: a σt below about 4e-38 would overflow to ∞ and lose its light.
+            (13.8 / thinnest).min(f32::MAX)
         }
         Some(g) => (g.hi - o).abs().max((g.lo - o).abs()).length(),
     }
@@ -540,6 +541,7 @@ mod tests {
         for m in [
             medium(Rgb::ONE, Rgb::ZERO, None),
             medium(thin, Rgb::ZERO, None),
+            medium(Rgb::new(0.0, 1e-40, 0.0), Rgb::ZERO, None), // 13.8 / σt overflows f32
             medium(Rgb::ZERO, Rgb::new(2.0, 0.0, 0.0), None),
             medium(Rgb::ONE, Rgb::ZERO, Some(grid)),
         ] {

@@ -5,6 +5,7 @@
 use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
+    failed::{FAILED_ESTIMATE, degenerate_length},
     light_paths::SurfaceVertex,
     lights::LightSample,
     media,
@@ -83,9 +84,12 @@ pub fn vpl_to_media(ts: &TraceScene, seg: &MediaSegment, vpl: &SurfaceVertex, cl
     }
     let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
     let q = Vec3::from(vpl.pos);
+    if let Some(v) = degenerate_length(seg.length) {
+        return v;
+    }
     let (t, pdf) = sampling::equiangular(o, d, 0.0, seg.length, q, s.next_1d());
     if !(pdf > 0.0) {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let x = o + d * t;
     let to = q - x;

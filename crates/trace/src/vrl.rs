@@ -10,6 +10,7 @@
 use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
+    failed::{FAILED_ESTIMATE, degenerate_length},
     light_paths::LightSegment,
     lights::LightSample,
     media,
@@ -39,9 +40,12 @@ pub fn vrl_to_surface(ts: &TraceScene, sp: &ShadingPoint, vrl: &LightSegment, cl
     let m = &scene.media[vrl.medium as usize];
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
     let p = Vec3::from(sp.pos);
+    if let Some(v) = degenerate_length(vrl.length) {
+        return v;
+    }
     let (u, pdf) = sampling::equiangular(ov, dv, 0.0, vrl.length, p, s.next_1d());
     if !(pdf > 0.0) {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let y = ov + dv * u;
     let Some(shadow) = medium_target(p, y) else {
@@ -115,16 +119,19 @@ pub fn vrl_to_media(ts: &TraceScene, seg: &MediaSegment, vrl: &LightSegment, cla
     }
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
     let (oc, dc) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
+    if let Some(v) = degenerate_length(vrl.length).or(degenerate_length(seg.length)) {
+        return v;
+    }
     // Stage 1: u on the VRL ∝ 1 / dist(y(u), camera line)².
     let (u, pdf_u) = sample_near_line(ov, dv, vrl.length, oc, dc, 0.0, s.next_1d());
     if !(pdf_u > 0.0) || !pdf_u.is_finite() {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let y = ov + dv * u;
     // Stage 2: t on the camera segment equiangularly towards y.
     let (t, pdf_t) = sampling::equiangular(oc, dc, 0.0, seg.length, y, s.next_1d());
     if !(pdf_t > 0.0) {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let x = oc + dc * t;
     let Some(shadow) = medium_target(x, y) else {

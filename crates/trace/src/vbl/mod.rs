@@ -82,6 +82,7 @@
 use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
+    failed::{FAILED_ESTIMATE, degenerate_length},
     light_paths::{LightSegment, SurfaceVertex},
     lights::LightSample,
     media,
@@ -153,10 +154,11 @@ impl Default for VblSettings {
     }
 }
 
-/// A squared radius fit for use: NaN or negative → 0 (the VRL/VPL limit).
+/// A squared radius fit for use: NaN or negative → 0 (the VRL/VPL limit), ∞ (an R0 whose
+/// square overflows) → the largest finite value (a blur so wide that nothing is left).
 #[inline]
 fn clean_r2(r2: f32) -> f32 {
-    if r2 > 0.0 { r2 } else { 0.0 }
+    if r2 > 0.0 { r2.min(f32::MAX) } else { 0.0 }
 }
 
 /// The walls next to a VPL ([`Walls::around`]) for the pass's squared radius `r2`, probed
@@ -281,8 +283,8 @@ pub fn vbl_to_surface(
     // At the VSL centre the light travels along dv and leaves towards the receiver (−ω').
     let phase = |w: Vec3| hg.eval(-w, -dv);
     let len = vrl.length;
-    if !(len > 0.0) {
-        return Rgb::ZERO;
+    if let Some(v) = degenerate_length(len) {
+        return v;
     }
     let line = LineAngles::new(ov, dv, 0.0, len, p, r2.sqrt());
     // The integrand's sharpest lobe: its scale sets the PDF's vertex count, and wide cones
@@ -300,7 +302,7 @@ pub fn vbl_to_surface(
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let y = ov + dv * u;
     let Some(cone) = vsl_cone(p, y, r2, rx.n) else {
@@ -358,8 +360,8 @@ pub fn vbl_to_media(
     let r = r2.sqrt();
     let (ov, dv) = (Vec3::from(vrl.origin), Vec3::from(vrl.dir));
     let (oc, dc) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
-    if !(vrl.length > 0.0 && seg.length > 0.0) {
-        return Rgb::ZERO;
+    if let Some(v) = degenerate_length(vrl.length).or(degenerate_length(seg.length)) {
+        return v;
     }
     // Stage 1 (as the VRL paper): the VSL centre ∝ 1/dist(y(u), camera line)², the distance
     // floored at R, where the VSL stops resolving it; in a medium with a density grid, times
@@ -381,7 +383,7 @@ pub fn vbl_to_media(
         _ => crate::vrl::sample_near_line(ov, dv, vrl.length, oc, dc, r, s.next_1d()),
     };
     if !(pdf_u > 0.0 && pdf_u.is_finite()) {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let y = ov + dv * u;
     let (hv, hc) = (HenyeyGreenstein { g: mv.g }, HenyeyGreenstein { g: mc.g });
@@ -410,7 +412,7 @@ pub fn vbl_to_media(
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf_t > 0.0) {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let x = oc + dc * t;
     let Some(cone) = vsl_cone(x, y, r2, -dc) else {
@@ -474,8 +476,8 @@ pub fn vsl_to_media_within(
     let r2 = clean_r2(r2);
     let (o, d) = (Vec3::from(seg.origin), Vec3::from(seg.dir));
     let q = Vec3::from(vpl.pos);
-    if !(seg.length > 0.0) {
-        return Rgb::ZERO;
+    if let Some(v) = degenerate_length(seg.length) {
+        return v;
     }
     let Some(light) = Surface::light(ts, vpl) else {
         return Rgb::ZERO;
@@ -497,7 +499,7 @@ pub fn vsl_to_media_within(
     });
     let rnd = ConeRandom::draw(s);
     if !(pdf > 0.0) {
-        return Rgb::ZERO;
+        return FAILED_ESTIMATE;
     }
     let x = o + d * t;
     let Some(cone) = vsl_cone(x, q, r2, -d) else {
