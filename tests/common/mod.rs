@@ -327,7 +327,13 @@ pub struct MeansWithErrors {
     pub component_errors: [DVec3; 7],
     pub image: DVec3,
     pub image_error: DVec3,
+    /// The standard error of each [`TILE`]² tile's mean (row-major, as `Image::downsample`),
+    /// from the same batches.
+    pub tile_errors: Vec<DVec3>,
 }
+
+/// Side of the tiles whose means [`MeansWithErrors::tile_errors`] gives errors for.
+pub const TILE: u32 = 4;
 
 pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -> MeansWithErrors {
     let Budget::Passes(passes) = opts.budget else {
@@ -341,6 +347,8 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
     // Slot 0..7: the components; the image is tracked apart in the same way.
     let (mut parts, mut last_parts) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
     let (mut whole, mut last_whole) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
+    // Each batch's tile means, recovered from the cumulative ones as in `push_cumulative`.
+    let (mut tiles, mut last_tiles) = (Vec::<Vec<DVec3>>::new(), (Vec::<DVec3>::new(), 0u64));
     let result = render(ts, opts, |progress| {
         if progress.passes % batch == 0 {
             let means: [DVec3; 7] = std::array::from_fn(|c| {
@@ -353,6 +361,23 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
             let mut image = [DVec3::ZERO; 7];
             image[0] = progress.film.image().mean().as_dvec3();
             whole.push_cumulative(&image, progress.passes, &mut last_whole);
+            let now: Vec<DVec3> = progress
+                .film
+                .image()
+                .downsample(TILE)
+                .pixels
+                .iter()
+                .map(|p| p.as_dvec3())
+                .collect();
+            let (n, n_last) = (progress.passes as f64, last_tiles.1 as f64);
+            let last = &last_tiles.0;
+            tiles.push(
+                now.iter()
+                    .enumerate()
+                    .map(|(i, t)| (*t * n - last.get(i).map_or(DVec3::ZERO, |l| *l * n_last)) / (n - n_last))
+                    .collect(),
+            );
+            last_tiles = (now, progress.passes);
         }
         true
     })
@@ -370,6 +395,14 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
         component_errors: parts.standard_errors(),
         image,
         image_error: whole.standard_errors()[0],
+        tile_errors: (0..tiles[0].len())
+            .map(|i| {
+                let k = tiles.len() as f64;
+                let mean = tiles.iter().map(|b| b[i]).sum::<DVec3>() / k;
+                let var = tiles.iter().map(|b| (b[i] - mean) * (b[i] - mean)).sum::<DVec3>() / (k - 1.0);
+                (var / k).map(f64::sqrt)
+            })
+            .collect(),
     }
 }
 
