@@ -5,8 +5,7 @@ use crate::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
     context::MAX_CROSSINGS,
-    failed::FAILED_ESTIMATE,
-    failed::degenerate_length,
+    failed::{FAILED_ESTIMATE, degenerate_length},
     media,
 };
 use beamlight_scene::{Rgb, frame::Frame, phase::HenyeyGreenstein, rng::Sampler, sampling};
