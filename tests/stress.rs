@@ -17,6 +17,7 @@ use beamlight_testkit::gltf_writer::shapes;
 use beamlight_trace::{
     TraceScene,
     camera_paths::{MediaSegment, ShadingPoint},
+    direct,
     light_paths::{LightSegment, SurfaceVertex},
     light_tree::Drawing,
     streams::{self, GatherKind},
@@ -396,8 +397,8 @@ fn degenerate_virtual_light_geometry_stays_finite() {
         );
         assert!(sane(a) && sane(b), "VPL at the shading point: {a} {b}");
     }
-    // A pair whose sampling density fails (a VPL or a VRL at infinity, a VRL of NaN length, as
-    // a broken light path would leave them): every estimator returns NaN, which the gathers' `admit`
+    // A pair whose sampling density fails (a VPL or a VRL at infinity, a VRL or camera segment
+    // of NaN length, as a broken path would leave them): every estimator returns NaN, which the gathers' `admit`
     // counts, never a silent zero (`failed::FAILED_ESTIMATE`; made to fail once by returning
     // zero again). The GPU kernels must count the same pairs, below.
     let far_vpl = SurfaceVertex {
@@ -434,6 +435,15 @@ fn degenerate_virtual_light_geometry_stays_finite() {
             r2,
             &settings,
             &mut s(GatherKind::VrlToMedia, 0, 0),
+        ),
+        // Direct light along a camera segment of NaN length (the CPU's own estimator).
+        direct::direct_in_medium(
+            &ts,
+            &MediaSegment {
+                length: f32::NAN,
+                ..segments[0]
+            },
+            &mut s(GatherKind::VplToMedia, 0, 0),
         ),
     ];
     for (k, v) in failed.iter().enumerate() {
