@@ -55,7 +55,7 @@ fn means_over_seeds(ts: &TraceScene, rounds: u64, seeds: u32) -> ([DVec3; 7], [D
     }
     (
         sum,
-        parts.standard_errors(),
+        per_component(parts.standard_errors()),
         image,
         whole.standard_errors()[0],
         last.expect("a render"),

@@ -177,10 +177,10 @@ fn vbl_bias_vanishes_as_passes_go_on() {
         render(&ts, &options(Method::Vbl, w, h, 64, 64, 100 + seed), |progress| {
             if let Some(k) = CHECKPOINTS.iter().position(|&p| p == progress.passes) {
                 let mean = |film: &Film| film.image().mean().as_dvec3();
-                seeds[k].0.push(&std::array::from_fn(|c| mean(&progress.components[c])));
-                let mut image = [DVec3::ZERO; N];
-                image[0] = mean(progress.film);
-                seeds[k].1.push(&image);
+                seeds[k]
+                    .0
+                    .push(&std::array::from_fn::<_, N, _>(|c| mean(&progress.components[c])));
+                seeds[k].1.push(&[mean(progress.film)]);
             }
             true
         })

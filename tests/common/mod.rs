@@ -269,53 +269,71 @@ pub fn pt_components_with_errors_using(
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     (
         sum.map(|v| v / (spp as f64 * (w * h) as f64)),
-        batches.standard_errors(),
+        per_component(batches.standard_errors()),
     )
 }
 
-/// Means of independent batches (of passes, or of seeds), per component, and the standard
-/// error of their overall mean (the batch means' standard deviation over √batches), per channel,
-/// so that a tolerance can scale with the noise actually present.
+/// Means of independent batches (of passes, or of seeds), per slot (a component, a tile), and
+/// the standard error of their overall mean (the batch means' standard deviation over
+/// √batches), per channel, so that a tolerance can scale with the noise actually present.
+/// Every batch has the same slots.
 #[derive(Default)]
 pub struct BatchMeans {
-    batches: Vec<[DVec3; 7]>,
+    batches: Vec<Vec<DVec3>>,
 }
 
 impl BatchMeans {
-    pub fn push(&mut self, means: &[DVec3; 7]) {
-        self.batches.push(*means);
+    pub fn push(&mut self, means: &[DVec3]) {
+        self.batches.push(means.to_vec());
     }
 
-    /// Records a render's progress: call with the cumulative component means after `passes`
-    /// passes at every batch boundary; the batch's own means are recovered from the running
-    /// sums (cumulative mean × passes).
-    pub fn push_cumulative(&mut self, cumulative: &[DVec3; 7], passes: u64, last: &mut ([DVec3; 7], u64)) {
+    /// Records a render's progress: call with the cumulative means after `passes` passes at
+    /// every batch boundary, `last` starting empty; the batch's own means are recovered from
+    /// the running sums (cumulative mean × passes).
+    pub fn push_cumulative(&mut self, cumulative: &[DVec3], passes: u64, last: &mut (Vec<DVec3>, u64)) {
         let n = (passes - last.1) as f64;
-        let means = std::array::from_fn(|c| (cumulative[c] * passes as f64 - last.0[c] * last.1 as f64) / n);
+        let earlier = |c: usize| last.0.get(c).map_or(DVec3::ZERO, |m| *m * last.1 as f64);
+        let means: Vec<DVec3> = (0..cumulative.len())
+            .map(|c| (cumulative[c] * passes as f64 - earlier(c)) / n)
+            .collect();
         self.push(&means);
-        *last = (*cumulative, passes);
+        *last = (cumulative.to_vec(), passes);
     }
 
-    /// The overall mean, per component (the mean of the batch means: batches of equal size).
-    pub fn means(&self) -> [DVec3; 7] {
+    /// The overall mean, per slot (the mean of the batch means: batches of equal size).
+    pub fn means(&self) -> Vec<DVec3> {
         let k = self.batches.len() as f64;
-        std::array::from_fn(|c| self.batches.iter().map(|b| b[c]).sum::<DVec3>() / k)
+        (0..self.slots())
+            .map(|c| self.batches.iter().map(|b| b[c]).sum::<DVec3>() / k)
+            .collect()
     }
 
-    pub fn standard_errors(&self) -> [DVec3; 7] {
+    pub fn standard_errors(&self) -> Vec<DVec3> {
         let k = self.batches.len() as f64;
         assert!(k >= 2.0, "need at least two batches");
-        std::array::from_fn(|c| {
-            let mean = self.batches.iter().map(|b| b[c]).sum::<DVec3>() / k;
-            let var = self
-                .batches
-                .iter()
-                .map(|b| (b[c] - mean) * (b[c] - mean))
-                .sum::<DVec3>()
-                / (k - 1.0);
-            (var / k).map(f64::sqrt)
-        })
+        let means = self.means();
+        (0..self.slots())
+            .map(|c| {
+                let var = self
+                    .batches
+                    .iter()
+                    .map(|b| (b[c] - means[c]) * (b[c] - means[c]))
+                    .sum::<DVec3>()
+                    / (k - 1.0);
+                (var / k).map(f64::sqrt)
+            })
+            .collect()
     }
+
+    fn slots(&self) -> usize {
+        self.batches.first().map_or(0, Vec::len)
+    }
+}
+
+/// Per-component values (`BatchMeans` of the seven components) as the fixed array the
+/// component checks take.
+pub fn per_component(v: Vec<DVec3>) -> [DVec3; 7] {
+    v.try_into().expect("one value per component")
 }
 
 /// A render's image means with standard errors from batch means over `batches` equal batches
@@ -345,10 +363,9 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
     );
     let batch = passes / batches;
     // Slot 0..7: the components; the image is tracked apart in the same way.
-    let (mut parts, mut last_parts) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
-    let (mut whole, mut last_whole) = (BatchMeans::default(), ([DVec3::ZERO; 7], 0u64));
-    // Each batch's tile means, recovered from the cumulative ones as in `push_cumulative`.
-    let (mut tiles, mut last_tiles) = (Vec::<Vec<DVec3>>::new(), (Vec::<DVec3>::new(), 0u64));
+    let (mut parts, mut last_parts) = (BatchMeans::default(), (Vec::new(), 0u64));
+    let (mut whole, mut last_whole) = (BatchMeans::default(), (Vec::new(), 0u64));
+    let (mut tiles, mut last_tiles) = (BatchMeans::default(), (Vec::new(), 0u64));
     let result = render(ts, opts, |progress| {
         if progress.passes % batch == 0 {
             let means: [DVec3; 7] = std::array::from_fn(|c| {
@@ -358,26 +375,10 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
                     .map_or(DVec3::ZERO, |f| f.image().mean().as_dvec3())
             });
             parts.push_cumulative(&means, progress.passes, &mut last_parts);
-            let mut image = [DVec3::ZERO; 7];
-            image[0] = progress.film.image().mean().as_dvec3();
-            whole.push_cumulative(&image, progress.passes, &mut last_whole);
-            let now: Vec<DVec3> = progress
-                .film
-                .image()
-                .downsample(TILE)
-                .pixels
-                .iter()
-                .map(|p| p.as_dvec3())
-                .collect();
-            let (n, n_last) = (progress.passes as f64, last_tiles.1 as f64);
-            let last = &last_tiles.0;
-            tiles.push(
-                now.iter()
-                    .enumerate()
-                    .map(|(i, t)| (*t * n - last.get(i).map_or(DVec3::ZERO, |l| *l * n_last)) / (n - n_last))
-                    .collect(),
-            );
-            last_tiles = (now, progress.passes);
+            let image = progress.film.image();
+            whole.push_cumulative(&[image.mean().as_dvec3()], progress.passes, &mut last_whole);
+            let now: Vec<DVec3> = image.downsample(TILE).pixels.iter().map(|p| p.as_dvec3()).collect();
+            tiles.push_cumulative(&now, progress.passes, &mut last_tiles);
         }
         true
     })
@@ -392,17 +393,10 @@ pub fn render_with_errors(ts: &TraceScene, opts: &RenderOptions, batches: u64) -
     MeansWithErrors {
         result,
         components,
-        component_errors: parts.standard_errors(),
+        component_errors: per_component(parts.standard_errors()),
         image,
         image_error: whole.standard_errors()[0],
-        tile_errors: (0..tiles[0].len())
-            .map(|i| {
-                let k = tiles.len() as f64;
-                let mean = tiles.iter().map(|b| b[i]).sum::<DVec3>() / k;
-                let var = tiles.iter().map(|b| (b[i] - mean) * (b[i] - mean)).sum::<DVec3>() / (k - 1.0);
-                (var / k).map(f64::sqrt)
-            })
-            .collect(),
+        tile_errors: tiles.standard_errors(),
     }
 }
 
