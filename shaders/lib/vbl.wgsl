@@ -221,16 +221,110 @@ fn grid_medium(m: Medium, mi: u32) -> u32 {
 // field of `Collection`, which is passed by value for every direction).
 var<private> centre_walls: Walls;
 
-// `vbl::uncut_weight`: 1 / (the uncut fraction of the disc), in [1, 2].
-fn uncut_weight(height: f32, reach: f32) -> f32 {
-    if !(reach > 0.0) || height >= reach {
+// `vbl::Cuts`: the chords cutting one collection disc, the receiver's and at most one per wall;
+// each the vector `across` the chord towards its kept side (its length the disc's reach across
+// it) and the centre's height above the chord.
+const MAX_CUTS: u32 = 7u;
+struct Cuts {
+    across: array<vec3<f32>, 7>,
+    height: array<f32, 7>,
+    count: u32,
+}
+
+// `Cuts::push`: adds a chord if it meets the disc (a negative height is taken as 0).
+fn cuts_push(cuts: ptr<function, Cuts>, height: f32, across: vec3<f32>) {
+    let reach2 = dot(across, across);
+    if !(reach2 > 0.0) || (height * height >= reach2 && height >= 0.0) || (*cuts).count == MAX_CUTS {
+        return;
+    }
+    (*cuts).across[(*cuts).count] = across;
+    (*cuts).height[(*cuts).count] = max(height, 0.0);
+    (*cuts).count += 1u;
+}
+
+// `Cuts::weight`: 1 / (the fraction of the disc facing `w` that every chord leaves).
+fn cuts_weight(cuts: Cuts, w: vec3<f32>) -> f32 {
+    if cuts.count == 0u {
         return 1.0;
     }
-    let a = max(height / reach, 0.0);
-    let c = sqrt(1.0 - a * a);
-    // asin(a) as atan2(a, √(1 − a²)), with the twin of the CPU's accurate atan2.
-    let fraction = 0.5 + (a * c + precise_atan2(a, c)) * FRAC_1_PI;
-    return 1.0 / fraction;
+    if cuts.count == 1u {
+        let a = cuts.height[0] / length_glam(cuts.across[0]);
+        let c = sqrt(1.0 - a * a);
+        // asin(a) as atan2(a, √(1 − a²)), with the twin of the CPU's accurate atan2.
+        let fraction = 0.5 + (a * c + precise_atan2(a, c)) * FRAC_1_PI;
+        return 1.0 / fraction;
+    }
+    let e1 = normalize_glam(cuts.across[0]);
+    let e2 = cross(w, e1);
+    var half_planes: array<vec3<f32>, 7>;
+    for (var i = 0u; i < cuts.count; i++) {
+        let v = cuts.across[i];
+        let reach = length_glam(v);
+        half_planes[i] = vec3<f32>(vec2<f32>(dot(v, e1), dot(v, e2)) / reach, cuts.height[i] / reach);
+    }
+    return 1.0 / kept_fraction(half_planes, cuts.count);
+}
+
+// `vbl::kept_fraction`: the fraction of the unit disc in the half-planes {v : v·u ≥ −a}, each
+// given as (u, a): the square around the disc clipped by each, then the disc's area within the
+// polygon as a sum of signed wedges over its edges.
+fn kept_fraction(half_planes: array<vec3<f32>, 7>, count: u32) -> f32 {
+    var polygon: array<vec2<f32>, 11>;
+    polygon[0] = vec2<f32>(-1.0, -1.0);
+    polygon[1] = vec2<f32>(1.0, -1.0);
+    polygon[2] = vec2<f32>(1.0, 1.0);
+    polygon[3] = vec2<f32>(-1.0, 1.0);
+    var corners = 4u;
+    for (var k = 0u; k < count; k++) {
+        let u = half_planes[k].xy;
+        let a = half_planes[k].z;
+        var clipped: array<vec2<f32>, 11>;
+        var kept = 0u;
+        for (var i = 0u; i < corners; i++) {
+            let p = polygon[i];
+            let q = polygon[(i + 1u) % corners];
+            let dp = dot(p, u) + a;
+            let dq = dot(q, u) + a;
+            if dp >= 0.0 {
+                clipped[kept] = p;
+                kept += 1u;
+            }
+            if (dp >= 0.0) != (dq >= 0.0) {
+                clipped[kept] = p + (q - p) * (dp / (dp - dq));
+                kept += 1u;
+            }
+        }
+        polygon = clipped;
+        corners = kept;
+    }
+    var area = 0.0;
+    for (var i = 0u; i < corners; i++) {
+        area += disc_wedge(polygon[i], polygon[(i + 1u) % corners]);
+    }
+    return area * FRAC_1_PI;
+}
+
+fn perp_dot(p: vec2<f32>, q: vec2<f32>) -> f32 {
+    return p.x * q.y - p.y * q.x;
+}
+
+fn disc_sector(p: vec2<f32>, q: vec2<f32>) -> f32 {
+    return 0.5 * precise_atan2(perp_dot(p, q), dot(p, q));
+}
+
+// `vbl::disc_wedge`: the signed area of the unit disc within the triangle (0, a, b).
+fn disc_wedge(a: vec2<f32>, b: vec2<f32>) -> f32 {
+    let d = b - a;
+    let dd = dot(d, d);
+    let ad = dot(a, d);
+    let disc = ad * ad - dd * (dot(a, a) - 1.0);
+    if !(dd > 0.0 && disc > 0.0) {
+        return disc_sector(a, b);
+    }
+    let root = sqrt(disc);
+    let p1 = a + d * clamp((-ad - root) / dd, 0.0, 1.0);
+    let p2 = a + d * clamp((-ad + root) / dd, 0.0, 1.0);
+    return disc_sector(a, p1) + 0.5 * perp_dot(p1, p2) + disc_sector(p2, b);
 }
 
 // `vbl::transmittance_share`: T^share per channel (0 stays 0; a NaN or negative T stays NaN,
@@ -247,8 +341,6 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
     let m = select(w, col.sheet, col.has_sheet);
     let wm = dot(w, m);
     let wn = dot(w, n);
-    let height = dot(to, m) * wn * select(1.0, -1.0, wm < 0.0);
-    let reach = col.r * length_glam(n * wm - m * wn);
     var t = dot(to, w);
     if col.has_sheet && wm != 0.0 {
         t = dot(to, m) / wm;
@@ -258,9 +350,11 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
     if d > 0.0 {
         share = max(t, 0.0) / d;
     }
-    var weight = uncut_weight(height, reach);
     let sign = select(1.0, -1.0, wm < 0.0);
     let to_m = dot(to, m);
+    var cuts: Cuts;
+    cuts.count = 0u;
+    cuts_push(&cuts, to_m * wn * sign, col.r * (n * wm - m * wn) * sign);
     for (var i = 0u; i < centre_walls.count; i++) {
         let wall = centre_walls.planes[i];
         let above = dot(col.origin - wall.point, wall.normal);
@@ -270,8 +364,8 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
         }
         let wall_n = dot(w, wall.normal);
         let wall_height = (above * wm + to_m * wall_n) * sign;
-        let across = wall.normal * wm - m * wall_n;
-        let reach2 = col.r * col.r * dot(across, across);
+        let across = col.r * (wall.normal * wm - m * wall_n) * sign;
+        let reach2 = dot(across, across);
         let parallel = 1e-4 * col.r * wm;
         if (wall_height >= 0.0 && wall_height * wall_height >= reach2) || !(reach2 > parallel * parallel) {
             continue;
@@ -279,8 +373,9 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
         if wall_height < 0.0 {
             return vec3<f32>(0.0);
         }
-        weight *= uncut_weight(wall_height, sqrt(reach2));
+        cuts_push(&cuts, wall_height, across);
     }
+    let weight = cuts_weight(cuts, w);
     // Clamped into the grid's box, as on the CPU.
     var density = 1.0;
     if col.medium != NO_MEDIUM {
