@@ -47,17 +47,6 @@ fn vsl_cone(at: vec3<f32>, centre: vec3<f32>, r2: f32, fallback: vec3<f32>) -> C
     return c;
 }
 
-// `vbl::vsl_sheet_cone`: a surface photon's cone; inside the sphere the hemisphere about
-// `inside`, the side its surface's disc lies on.
-fn vsl_sheet_cone(at: vec3<f32>, centre: vec3<f32>, r2: f32, inside: vec3<f32>) -> Cone {
-    var c = vsl_cone(at, centre, r2, inside);
-    let to = centre - at;
-    if dot(to, to) <= r2 {
-        c.axis = inside;
-    }
-    return c;
-}
-
 // `vbl::closest_in_cone`: the direction within the cone closest to the unit direction a.
 fn closest_in_cone(cone: Cone, a: vec3<f32>) -> vec3<f32> {
     let ca = dot(a, cone.axis);
@@ -253,8 +242,8 @@ fn cuts_push(cuts: ptr<function, Cuts>, height: f32, across: vec3<f32>) {
     (*cuts).count += 1u;
 }
 
-// `Cuts::weight`: 1 / (the fraction of the disc with normal `normal` that every chord leaves).
-fn cuts_weight(cuts: Cuts, normal: vec3<f32>) -> f32 {
+// `Cuts::weight`: 1 / (the fraction of the disc facing `w` that every chord leaves).
+fn cuts_weight(cuts: Cuts, w: vec3<f32>) -> f32 {
     if cuts.count == 0u {
         return 1.0;
     }
@@ -266,7 +255,7 @@ fn cuts_weight(cuts: Cuts, normal: vec3<f32>) -> f32 {
         return 1.0 / fraction;
     }
     let e1 = normalize_glam(cuts.across[0]);
-    let e2 = cross(normal, e1);
+    let e2 = cross(w, e1);
     var half_planes: array<vec3<f32>, 7>;
     for (var i = 0u; i < cuts.count; i++) {
         let v = cuts.across[i];
@@ -345,25 +334,27 @@ fn transmittance_share(tr: vec3<f32>, share: f32) -> vec3<f32> {
 }
 
 // `Collection::weight`: the transmittance to the collection point over the uncut fraction of the
-// disc, along ω' = w, times the density there for a VBL point in a density grid (a surface
-// photon: `collection_on_surface`).
+// ellipse, along ω' = w, times the density there for a VBL point in a density grid.
 fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
-    if col.has_sheet {
-        return collection_on_surface(col, w);
-    }
     let to = col.centre - col.origin;
-    let t = dot(to, w);
+    let n = select(w, col.plane, col.has_plane);
+    let m = select(w, col.sheet, col.has_sheet);
+    let wm = dot(w, m);
+    let wn = dot(w, n);
+    var t = dot(to, w);
+    if col.has_sheet && wm != 0.0 {
+        t = dot(to, m) / wm;
+    }
     let d = length_glam(to);
     var share = 1.0;
     if d > 0.0 {
         share = max(t, 0.0) / d;
     }
+    let sign = select(1.0, -1.0, wm < 0.0);
+    let to_m = dot(to, m);
     var cuts: Cuts;
     cuts.count = 0u;
-    if col.has_plane {
-        let wn = dot(w, col.plane);
-        cuts_push(&cuts, t * wn, col.r * (col.plane - w * wn));
-    }
+    cuts_push(&cuts, to_m * wn * sign, col.r * (n * wm - m * wn) * sign);
     for (var i = 0u; i < centre_walls.count; i++) {
         let wall = centre_walls.planes[i];
         let above = dot(col.origin - wall.point, wall.normal);
@@ -372,17 +363,17 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let wall_n = dot(w, wall.normal);
-        let height = above + t * wall_n;
-        let across = col.r * (wall.normal - w * wall_n);
+        let wall_height = (above * wm + to_m * wall_n) * sign;
+        let across = col.r * (wall.normal * wm - m * wall_n) * sign;
         let reach2 = dot(across, across);
-        let parallel = 1e-4 * col.r;
-        if (height >= 0.0 && height * height >= reach2) || !(reach2 > parallel * parallel) {
+        let parallel = 1e-4 * col.r * wm;
+        if (wall_height >= 0.0 && wall_height * wall_height >= reach2) || !(reach2 > parallel * parallel) {
             continue;
         }
-        if height < 0.0 {
+        if wall_height < 0.0 {
             return vec3<f32>(0.0);
         }
-        cuts_push(&cuts, height, across);
+        cuts_push(&cuts, wall_height, across);
     }
     let weight = cuts_weight(cuts, w);
     // Clamped into the grid's box, as on the CPU.
@@ -391,44 +382,6 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
         density = medium_density_near(col.medium, col.origin + w * max(t, 0.0));
     }
     return transmittance_share(col.transmittance, share) * (weight * density);
-}
-
-// `Collection::on_surface`: a surface photon on the sheet with normal m, collected where the ray
-// crosses its surface within R of it, by the disc in the surface (f, not f·cos: 1/|ω'·m|).
-fn collection_on_surface(col: Collection, w: vec3<f32>) -> vec3<f32> {
-    if col.r == 0.0 {
-        return col.transmittance;
-    }
-    let m = col.sheet;
-    let to = col.centre - col.origin;
-    let wm = dot(w, m);
-    let t = dot(to, m) / wm;
-    let off = w * t - to;
-    if !(t > 0.0) || !(dot(off, off) < col.r * col.r) {
-        return vec3<f32>(0.0);
-    }
-    var cuts: Cuts;
-    cuts.count = 0u;
-    for (var i = 0u; i < centre_walls.count; i++) {
-        let wall = centre_walls.planes[i];
-        let above = dot(col.origin - wall.point, wall.normal);
-        if above < -1e-3 * col.r {
-            continue;
-        }
-        let height = above + t * dot(w, wall.normal);
-        let across = col.r * (wall.normal - m * dot(wall.normal, m));
-        let reach2 = dot(across, across);
-        let parallel = 1e-4 * col.r;
-        if (height >= 0.0 && height * height >= reach2) || !(reach2 > parallel * parallel) {
-            continue;
-        }
-        if height < 0.0 {
-            return vec3<f32>(0.0);
-        }
-        cuts_push(&cuts, height, across);
-    }
-    let d = length_glam(to);
-    return transmittance_share(col.transmittance, t / d) * (cuts_weight(cuts, m) / abs(wm));
 }
 
 // `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') · collection_weight(col, ω') and
