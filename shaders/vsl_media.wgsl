@@ -35,7 +35,7 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, walls: Walls
         return failed_estimate();
     }
     let x = o + d * t;
-    let cone = vsl_cone(x, q, r2, -d);
+    let cone = vsl_sheet_cone(x, q, r2, -light.n);
     if !cone.valid {
         return vec3<f32>(0.0);
     }

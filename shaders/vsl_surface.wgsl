@@ -11,7 +11,7 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, w
     let r2 = clean_r2(params.radius2);
     let light = surface_lobe(f_vpl, vpl.normal, vpl.wi, -1.0);
     let rnd = cone_random(s);
-    let cone = vsl_cone(sp.pos, vpl.pos, r2, sp.normal);
+    let cone = vsl_sheet_cone(sp.pos, vpl.pos, r2, sp.normal);
     if !cone.valid {
         return vec3<f32>(0.0);
     }

@@ -47,6 +47,17 @@ fn vsl_cone(at: vec3<f32>, centre: vec3<f32>, r2: f32, fallback: vec3<f32>) -> C
     return c;
 }
 
+// `vbl::vsl_sheet_cone`: a surface photon's cone; inside the sphere the hemisphere about
+// `inside`, the side its surface's disc lies on.
+fn vsl_sheet_cone(at: vec3<f32>, centre: vec3<f32>, r2: f32, inside: vec3<f32>) -> Cone {
+    var c = vsl_cone(at, centre, r2, inside);
+    let to = centre - at;
+    if dot(to, to) <= r2 {
+        c.axis = inside;
+    }
+    return c;
+}
+
 // `vbl::closest_in_cone`: the direction within the cone closest to the unit direction a.
 fn closest_in_cone(cone: Cone, a: vec3<f32>) -> vec3<f32> {
     let ca = dot(a, cone.axis);
@@ -242,8 +253,8 @@ fn cuts_push(cuts: ptr<function, Cuts>, height: f32, across: vec3<f32>) {
     (*cuts).count += 1u;
 }
 
-// `Cuts::weight`: 1 / (the fraction of the disc facing `w` that every chord leaves).
-fn cuts_weight(cuts: Cuts, w: vec3<f32>) -> f32 {
+// `Cuts::weight`: 1 / (the fraction of the disc with normal `normal` that every chord leaves).
+fn cuts_weight(cuts: Cuts, normal: vec3<f32>) -> f32 {
     if cuts.count == 0u {
         return 1.0;
     }
@@ -255,7 +266,7 @@ fn cuts_weight(cuts: Cuts, w: vec3<f32>) -> f32 {
         return 1.0 / fraction;
     }
     let e1 = normalize_glam(cuts.across[0]);
-    let e2 = cross(w, e1);
+    let e2 = cross(normal, e1);
     var half_planes: array<vec3<f32>, 7>;
     for (var i = 0u; i < cuts.count; i++) {
         let v = cuts.across[i];
@@ -334,27 +345,25 @@ fn transmittance_share(tr: vec3<f32>, share: f32) -> vec3<f32> {
 }
 
 // `Collection::weight`: the transmittance to the collection point over the uncut fraction of the
-// ellipse, along ω' = w, times the density there for a VBL point in a density grid.
+// disc, along ω' = w, times the density there for a VBL point in a density grid (a surface
+// photon: `collection_on_surface`).
 fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
-    let to = col.centre - col.origin;
-    let n = select(w, col.plane, col.has_plane);
-    let m = select(w, col.sheet, col.has_sheet);
-    let wm = dot(w, m);
-    let wn = dot(w, n);
-    var t = dot(to, w);
-    if col.has_sheet && wm != 0.0 {
-        t = dot(to, m) / wm;
+    if col.has_sheet {
+        return collection_on_surface(col, w);
     }
+    let to = col.centre - col.origin;
+    let t = dot(to, w);
     let d = length_glam(to);
     var share = 1.0;
     if d > 0.0 {
         share = max(t, 0.0) / d;
     }
-    let sign = select(1.0, -1.0, wm < 0.0);
-    let to_m = dot(to, m);
     var cuts: Cuts;
     cuts.count = 0u;
-    cuts_push(&cuts, to_m * wn * sign, col.r * (n * wm - m * wn) * sign);
+    if col.has_plane {
+        let wn = dot(w, col.plane);
+        cuts_push(&cuts, t * wn, col.r * (col.plane - w * wn));
+    }
     for (var i = 0u; i < centre_walls.count; i++) {
         let wall = centre_walls.planes[i];
         let above = dot(col.origin - wall.point, wall.normal);
@@ -363,17 +372,17 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let wall_n = dot(w, wall.normal);
-        let wall_height = (above * wm + to_m * wall_n) * sign;
-        let across = col.r * (wall.normal * wm - m * wall_n) * sign;
+        let height = above + t * wall_n;
+        let across = col.r * (wall.normal - w * wall_n);
         let reach2 = dot(across, across);
-        let parallel = 1e-4 * col.r * wm;
-        if (wall_height >= 0.0 && wall_height * wall_height >= reach2) || !(reach2 > parallel * parallel) {
+        let parallel = 1e-4 * col.r;
+        if (height >= 0.0 && height * height >= reach2) || !(reach2 > parallel * parallel) {
             continue;
         }
-        if wall_height < 0.0 {
+        if height < 0.0 {
             return vec3<f32>(0.0);
         }
-        cuts_push(&cuts, wall_height, across);
+        cuts_push(&cuts, height, across);
     }
     let weight = cuts_weight(cuts, w);
     // Clamped into the grid's box, as on the CPU.
@@ -384,13 +393,55 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
     return transmittance_share(col.transmittance, share) * (weight * density);
 }
 
+// `Collection::on_surface`: a surface photon on the sheet with normal m, collected where the ray
+// crosses its surface within R of it, by the disc in the surface (f, not f·cos: 1/|ω'·m|).
+fn collection_on_surface(col: Collection, w: vec3<f32>) -> vec3<f32> {
+    if col.r == 0.0 {
+        return col.transmittance;
+    }
+    let m = col.sheet;
+    let to = col.centre - col.origin;
+    let wm = dot(w, m);
+    let t = dot(to, m) / wm;
+    let off = w * t - to;
+    if !(t > 0.0) || !(dot(off, off) < col.r * col.r) {
+        return vec3<f32>(0.0);
+    }
+    var cuts: Cuts;
+    cuts.count = 0u;
+    for (var i = 0u; i < centre_walls.count; i++) {
+        let wall = centre_walls.planes[i];
+        let above = dot(col.origin - wall.point, wall.normal);
+        if above < -1e-3 * col.r {
+            continue;
+        }
+        let height = above + t * dot(w, wall.normal);
+        let across = col.r * (wall.normal - m * dot(wall.normal, m));
+        let reach2 = dot(across, across);
+        let parallel = 1e-4 * col.r;
+        if (height >= 0.0 && height * height >= reach2) || !(reach2 > parallel * parallel) {
+            continue;
+        }
+        if height < 0.0 {
+            return vec3<f32>(0.0);
+        }
+        cuts_push(&cuts, height, across);
+    }
+    let d = length_glam(to);
+    return transmittance_share(col.transmittance, t / d) * (cuts_weight(cuts, m) / abs(wm));
+}
+
 // `vbl::integrate_cone` with g(ω') = eval(fa, ω') · eval(fb, ω') · collection_weight(col, ω') and
-// `lobe` the sharper factor.
+// `lobe` the sharper factor; a surface photon seen from beyond 2R draws its directions on its
+// disc (`integrate_disc`).
 fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col: Collection, rnd: ConeRandom) -> vec3<f32> {
     let frame = frame_from_normal(cone.axis);
     let omega = TAU * cone.one_minus_cos;
     var sum = vec3<f32>(0.0);
     let wide = 2.0 * cone.one_minus_cos >= lobe.scale * lobe.scale && omega > 0.0 && max_dirs >= 2u;
+    if collection_has_disc(col) {
+        return integrate_disc(cone, max_dirs, lobe, fa, fb, col, rnd, wide);
+    }
     if !wide {
         let n = cone_directions(cone, max_dirs, lobe.scale);
         for (var k = 0u; k < n; k++) {
@@ -411,8 +462,7 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col
         sum += lobe_eval(fa, w) * lobe_eval(fb, w) * collection_weight(col, w) / denominator;
     }
     for (var k = 0u; k < nb; k++) {
-        let pick = fract_trunc((f32(k) + 0.5) / f32(nb) + rnd.pick);
-        let ls = lobe_sample(lobe, shifted_lattice(k, nb, rnd.lobe), pick);
+        let ls = lobe_direction(lobe, k, nb, rnd);
         let w = ls.xyz;
         if ls.w != 0.0 && dot(w, cone.axis) >= cone.cos_max {
             let denominator = f32(na) * p_uniform + f32(nb) * lobe_pdf(lobe, w);
@@ -420,6 +470,76 @@ fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col
         }
     }
     return sum * (cone.weight / omega);
+}
+
+// `vbl::lobe_direction`: the k-th of n directions drawn from `lobe` (w = 0: none).
+fn lobe_direction(lobe: Lobe, k: u32, n: u32, rnd: ConeRandom) -> vec4<f32> {
+    let pick = fract_trunc((f32(k) + 0.5) / f32(n) + rnd.pick);
+    return lobe_sample(lobe, shifted_lattice(k, n, rnd.lobe), pick);
+}
+
+// `Collection::disc`: a surface photon seen from beyond 2R.
+fn collection_has_disc(col: Collection) -> bool {
+    let to = col.centre - col.origin;
+    return col.has_sheet && col.r > 0.0 && dot(to, to) > 4.0 * col.r * col.r;
+}
+
+// `SurfaceDisc::direction`: towards the disc point of u (concentric map), `frame` the sheet's.
+fn disc_direction(col: Collection, frame: mat3x3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let p = concentric_disk(u) * col.r;
+    let y = col.centre + frame[0] * p.x + frame[1] * p.y;
+    return normalize_glam(y - col.origin);
+}
+
+// `SurfaceDisc::scaled_pdf`: πR² times the density in solid angle of `disc_direction`,
+// dist²/|ω'·m| where the ray crosses the disc, 0 where it misses it.
+fn disc_scaled_pdf(col: Collection, w: vec3<f32>) -> f32 {
+    let to = col.centre - col.origin;
+    let wm = dot(w, col.sheet);
+    let t = dot(to, col.sheet) / wm;
+    let off = w * t - to;
+    if !(t > 0.0) || !(dot(off, off) < col.r * col.r) {
+        return 0.0;
+    }
+    return t * t / abs(wm);
+}
+
+// One direction's term of `integrate_disc`: g / (na πR² p_disc + nb πR² p_lobe), 0 off the disc.
+fn disc_term(w: vec3<f32>, na: u32, nb: u32, area: f32, wide: bool, lobe: Lobe, fa: Lobe, fb: Lobe, col: Collection) -> vec3<f32> {
+    let q = disc_scaled_pdf(col, w);
+    var lobe_share = 0.0;
+    if wide {
+        lobe_share = f32(nb) * area * lobe_pdf(lobe, w);
+    }
+    if q > 0.0 {
+        return lobe_eval(fa, w) * lobe_eval(fb, w) * collection_weight(col, w) / (f32(na) * q + lobe_share);
+    }
+    return vec3<f32>(0.0);
+}
+
+// `vbl::integrate_disc`: the cone's count of directions towards uniform points of a surface
+// photon's disc (half of them from the lobe when the cone is wide), by the balance heuristic.
+fn integrate_disc(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col: Collection, rnd: ConeRandom, wide: bool) -> vec3<f32> {
+    var na = cone_directions(cone, max_dirs, lobe.scale);
+    var nb = 0u;
+    if wide {
+        na = max_dirs - max_dirs / 2u;
+        nb = max_dirs / 2u;
+    }
+    let frame = frame_from_normal(col.sheet);
+    let area = PI * col.r * col.r;
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < na; k++) {
+        let w = disc_direction(col, frame, shifted_lattice(k, na, rnd.uniform));
+        sum += disc_term(w, na, nb, area, wide, lobe, fa, fb, col);
+    }
+    for (var k = 0u; k < nb; k++) {
+        let ls = lobe_direction(lobe, k, nb, rnd);
+        if ls.w != 0.0 {
+            sum += disc_term(ls.xyz, na, nb, area, wide, lobe, fa, fb, col);
+        }
+    }
+    return sum;
 }
 
 // `vbl::surface_vertex_value`: an angular density's vertex value between a surface's lobe

@@ -63,6 +63,19 @@ pub(super) fn vsl_cone(from: Vec3, centre: Vec3, r2: f32, fallback: Vec3) -> Opt
     (cone.weight.is_finite() && cone.weight > 0.0 && axis.is_finite()).then_some(cone)
 }
 
+/// The cone for a surface photon (a VPL) at `centre`: [`vsl_cone`] while the receiver lies
+/// outside the sphere (every ray that crosses the surface within R of the photon passes within
+/// R of it), and inside it the hemisphere about `inside`, the side the surface's disc lies on
+/// (the VPL's surface seen from a medium point, or the receiver's own upper side): the hemisphere
+/// facing the centre would miss part of the disc there.
+pub(super) fn vsl_sheet_cone(from: Vec3, centre: Vec3, r2: f32, inside: Vec3) -> Option<Cone> {
+    let mut cone = vsl_cone(from, centre, r2, inside)?;
+    if (centre - from).length_squared() <= r2 {
+        cone.axis = inside;
+    }
+    Some(cone)
+}
+
 /// The direction within `cone` closest to the unit direction `a`.
 pub(super) fn closest_in_cone(cone: &Cone, a: Vec3) -> Vec3 {
     let ca = a.dot(cone.axis);
@@ -175,16 +188,26 @@ impl ConeRandom {
 /// would find a glossy lobe inside a wide cone with probability its solid angle over the
 /// cone's, which makes the rare hits the bright outliers of a pixel; narrow cones see nearly
 /// constant integrands and get few uniform directions ([`cone_directions`]).
+///
+/// With a `disc` (a surface photon seen from beyond 2R, [`Collection::disc`]) the uniform
+/// directions are replaced by directions towards uniform points of the photon's disc in its
+/// surface, the only directions whose g is not 0 there: uniform ones would miss the disc (an
+/// ellipse of |cos θ| times the cone's solid angle, θ the view's angle to the surface) and make
+/// up for it with a 1/|cos θ| weight on the hits.
 pub(super) fn integrate_cone(
     cone: &Cone,
     max: u32,
     lobe: Option<(Lobe, f32)>,
+    disc: Option<SurfaceDisc>,
     rnd: ConeRandom,
     mut g: impl FnMut(Vec3) -> Rgb,
 ) -> Rgb {
     let frame = Frame::from_normal(cone.axis);
     let omega = std::f32::consts::TAU * cone.one_minus_cos;
     let wide = lobe.filter(|&(_, scale)| 2.0 * cone.one_minus_cos >= scale * scale && omega > 0.0 && max >= 2);
+    if let Some(disc) = disc {
+        return integrate_disc(&disc, cone, max, lobe, wide.map(|(l, _)| l), rnd, g);
+    }
     let Some((lobe, _)) = wide else {
         let n = cone_directions(cone, max, lobe.map_or(1.0, |(_, scale)| scale));
         let mut sum = Rgb::ZERO;
@@ -205,8 +228,7 @@ pub(super) fn integrate_cone(
         sum += g(w) / denominator(w);
     }
     for k in 0..nb {
-        let pick = ((k as f32 + 0.5) / nb as f32 + rnd.pick).fract();
-        let Some(w) = lobe.sample(sampling::shifted_lattice(k, nb, rnd.lobe), pick) else {
+        let Some(w) = lobe_direction(&lobe, k, nb, rnd) else {
             continue;
         };
         if w.dot(cone.axis) >= cone.cos {
@@ -215,6 +237,86 @@ pub(super) fn integrate_cone(
     }
     // Ω / (πR²) over Ω: the kernel 1/(πR²).
     sum * (cone.weight / omega)
+}
+
+/// The k-th of n directions drawn from `lobe` (a shifted lattice, the BSDF's lobe picked by a
+/// rotated offset).
+fn lobe_direction(lobe: &Lobe, k: u32, n: u32, rnd: ConeRandom) -> Option<Vec3> {
+    let pick = ((k as f32 + 0.5) / n as f32 + rnd.pick).fract();
+    lobe.sample(sampling::shifted_lattice(k, n, rnd.lobe), pick)
+}
+
+/// [`integrate_cone`] for a surface photon's disc: the same count of directions, towards
+/// uniform points of the disc (and from `wide`, the lobe, for half of them when the cone is
+/// wide). Each counts g / (πR² p(ω')), p summed over the strategies by the balance heuristic;
+/// a point drawn on the disc has πR² p = dist²/|cos θ| ([`SurfaceDisc::scaled_pdf`]), so the
+/// weight of the disc's own directions is |cos θ|/dist², never above 1/R² beyond 2R.
+fn integrate_disc(
+    disc: &SurfaceDisc,
+    cone: &Cone,
+    max: u32,
+    lobe: Option<(Lobe, f32)>,
+    wide: Option<Lobe>,
+    rnd: ConeRandom,
+    mut g: impl FnMut(Vec3) -> Rgb,
+) -> Rgb {
+    let (na, nb) = match wide {
+        Some(_) => (max - max / 2, max / 2),
+        None => (cone_directions(cone, max, lobe.map_or(1.0, |(_, scale)| scale)), 0),
+    };
+    let area = std::f32::consts::PI * disc.r * disc.r;
+    let mut term = |w: Vec3| {
+        let q = disc.scaled_pdf(w);
+        let lobe_share = wide.map_or(0.0, |l| nb as f32 * area * l.pdf(w));
+        // A direction off the disc (a lobe's, or a disc point lost to rounding at its rim)
+        // collects nothing: g is 0 there.
+        if q > 0.0 { g(w) / (na as f32 * q + lobe_share) } else { Rgb::ZERO }
+    };
+    let mut sum = Rgb::ZERO;
+    for k in 0..na {
+        sum += term(disc.direction(sampling::shifted_lattice(k, na, rnd.uniform)));
+    }
+    if let Some(lobe) = wide {
+        for k in 0..nb {
+            if let Some(w) = lobe_direction(&lobe, k, nb, rnd) {
+                sum += term(w);
+            }
+        }
+    }
+    sum
+}
+
+/// A surface photon's collection disc (radius R about `centre` in the surface with normal
+/// `normal`) seen from `origin`, as a distribution of gather directions.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SurfaceDisc {
+    pub(super) origin: Vec3,
+    pub(super) centre: Vec3,
+    pub(super) frame: Frame,
+    pub(super) r: f32,
+}
+
+impl SurfaceDisc {
+    /// The direction from the origin towards the disc point of `u` (concentric map).
+    pub(super) fn direction(&self, u: Vec2) -> Vec3 {
+        let p = sampling::concentric_disk(u) * self.r;
+        let y = self.centre + self.frame.s * p.x + self.frame.t * p.y;
+        (y - self.origin).normalize()
+    }
+
+    /// πR² times the density in solid angle of [`Self::direction`] for uniform u: dist²/|ω'·m|
+    /// where the ray from the origin crosses the disc (dist the distance to the crossing), 0
+    /// where it misses it. The test is [`Collection::on_surface`]'s, so that the two agree on
+    /// every direction.
+    pub(super) fn scaled_pdf(&self, w: Vec3) -> f32 {
+        let to = self.centre - self.origin;
+        let wm = w.dot(self.frame.n);
+        let t = to.dot(self.frame.n) / wm;
+        if !(t > 0.0) || !((w * t - to).length_squared() < self.r * self.r) {
+            return 0.0;
+        }
+        t * t / wm.abs()
+    }
 }
 
 /// Where along a gather ray a VSL's light is collected, and what that changes (issue 19). The
@@ -235,19 +337,22 @@ pub(super) fn integrate_cone(
 /// blurred density falls below the density; renormalising by the uncut fraction of the disc (the
 /// boundary kernel of density estimation) makes the blur energy-preserving for a density that is
 /// smooth across the disc. Away from the plane the fraction is 1, so the estimator is unchanged
-/// there and converges as R → 0; the weight lies in [1, 2], since the disc centres a receiver's
-/// rays reach lie on the open side of the cut, so at least half of each disc survives.
-/// A photon is counted where the ray crosses its *sheet*: a surface VSL (a VPL) on its surface
-/// (normal `sheet`), a volume VSL (a point of a VBL) in the plane through it perpendicular to ω'
-/// (`sheet` = `None`). The disc projects onto the sheet as an ellipse, and the cut is a plane
-/// through the receiver `origin` with normal `plane`:
-/// * a surface receiver's tangent plane (`Lsm`, `Lss`): behind it nothing is visible from the
-///   receiver (the shadow ray starts on the viewer's side), so the discs near the start of every
-///   oblique ray lose their part behind the surface;
-/// * for a receiver in a medium, `plane` = `None`, the plane through it perpendicular to ω': the
-///   beam estimate counts only photons ahead of the receiver (t > 0), which for a sheet crossed
-///   within R of the receiver (`Lms` next to a wall) drops part of the ellipse. For a volume VSL
-///   (`Lmm`) the discs at t > 0 are never cut by that plane, and the weight is 1.
+/// there and converges as R → 0. For a volume VSL (a point of a VBL, `sheet` = `None`) the
+/// disc faces ω' at the closest approach, and the receiver's tangent plane (`plane`, for
+/// `Lsm`) cuts it: behind it nothing is visible from the receiver, so the discs near the start
+/// of every oblique ray lose their part behind the surface. A medium receiver's discs at t > 0
+/// are never cut by the receiver.
+///
+/// **A surface photon's disc lies in its surface.** A surface VSL (a VPL on the surface with
+/// normal `sheet`) is collected where the ray crosses that surface, by the disc of radius R
+/// around the crossing in the surface: the photon map's own kernel ([`Collection::on_surface`]).
+/// The paper's disc facing the ray covers an ellipse on the surface stretched by 1/cos θ along
+/// the view, so a wall seen at grazing angles was blurred over R/cos θ: by quadrature, for a
+/// density ridge on a plane seen from 0.1 above it and 1–2 away, +2.5–3.4 % at R = 0.15 and
+/// +10–12.5 % at R = 0.3 (now +0.3–0.7 % and +1.4–3.5 %); in the 5-deep glossy fog box the side
+/// walls' `Lms` lost 1.3–1.8 % at R = 0.3. The surface disc needs no receiver cut (photons
+/// within R of the crossing are the same whoever looks), and its weight is f, not f·cos: the
+/// integrand carries the VPL's f·cos, so the weight divides by |cos θ|.
 ///
 /// Where the ray leaves the medium through a wall, the discs are cut too: a photon next to a
 /// wall is collected by rays whose discs reach beyond it, where no photon can be. The photons
@@ -259,10 +364,10 @@ pub(super) fn integrate_cone(
 /// 2R of the photon ([`Walls`], found by probe rays from the VSL centre) is a further cut,
 /// applied as a boundary kernel: nothing is collected beyond its plane, and a disc it cuts in
 /// front of it is renormalised by its uncut fraction; exact at a plane wall, for any receiver.
-/// A wall that is the receiver's own surface is already its `plane`, and a wall the receiver
-/// lies behind is no boundary between the two (a surface that curves away): both are skipped.
-/// Walls meeting at an edge or a corner multiply their weights, which is exact while their cuts
-/// of a disc do not overlap.
+/// For a volume VSL a wall that is the receiver's own surface is already its `plane`; a wall
+/// the receiver lies behind is no boundary between the two (a surface that curves away): both
+/// are skipped. Several cuts of one disc (walls at an edge or a corner, or a wall and the
+/// receiver's plane) are renormalised by the exact fraction they leave together ([`Cuts`]).
 ///
 /// **Where the photon scatters.** A VBL point's photon is collected at the gather ray's point
 /// nearest to it, up to R away from the VRL: the blur estimates the beams' fluence there, so
@@ -290,28 +395,25 @@ pub(super) struct Collection<'a> {
 
 impl Collection<'_> {
     /// What the light gathered along `w` is multiplied by: the transmittance to the collection
-    /// point over the uncut fraction of the ellipse, times the density there for a VBL point
-    /// in a density grid.
+    /// point over the uncut fraction of the disc, times the density there for a VBL point in a
+    /// density grid (a surface photon: [`Self::on_surface`]).
     pub(super) fn weight(&self, w: Vec3) -> Rgb {
+        if let Some(m) = self.sheet {
+            return self.on_surface(w, m);
+        }
+        // A volume photon is collected at the gather ray's point nearest to it, t along the
+        // ray, by a disc facing the ray.
         let to = self.centre - self.origin;
-        let n = self.plane.unwrap_or(w);
-        let m = self.sheet.unwrap_or(w);
-        let (wm, wn) = (w.dot(m), w.dot(n));
-        // A volume photon is collected at the closest approach, a surface photon where the ray
-        // crosses its surface (never behind the receiver; beyond the centre at grazing rays).
-        let t = if self.sheet.is_some() && wm != 0.0 {
-            to.dot(m) / wm
-        } else {
-            to.dot(w)
-        };
+        let t = to.dot(w);
         let d = to.length();
         let share = if d > 0.0 { t.max(0.0) / d } else { 1.0 };
-        // The ray meets the sheet at t = to·m / (ω'·m), a signed height t (ω'·n) above the
-        // receiver's cut; the ellipse reaches R |n − (ω'·n)/(ω'·m) m| across it. Both are
-        // multiplied by |ω'·m| to stay finite at grazing sheets.
-        let (sign, to_m) = (if wm < 0.0 { -1.0 } else { 1.0 }, to.dot(m));
         let mut cuts = Cuts::default();
-        cuts.push(to_m * wn * sign, self.r * (n * wm - m * wn) * sign);
+        // The receiver's tangent plane: the point's signed height t (ω'·n) above it, and the
+        // disc's reach R |n − (ω'·n) ω'| across it.
+        if let Some(n) = self.plane {
+            let wn = w.dot(n);
+            cuts.push(t * wn, self.r * (n - w * wn));
+        }
         for wall in self.walls.planes() {
             let above = (self.origin - wall.point).dot(wall.normal);
             let own = self
@@ -320,14 +422,13 @@ impl Collection<'_> {
             if own || above < -1e-3 * self.r {
                 continue;
             }
+            // The collection point's height over the wall and the disc's reach across it.
             let wall_n = w.dot(wall.normal);
-            // The collection point's height over the wall and the ellipse's reach across it,
-            // both multiplied by |ω'·m| as above (the point is origin + t ω').
-            let height = (above * wm + to_m * wall_n) * sign;
-            let across = self.r * (wall.normal * wm - m * wall_n) * sign;
+            let height = above + t * wall_n;
+            let across = self.r * (wall.normal - w * wall_n);
             let reach2 = across.length_squared();
-            // A disc the wall misses, or a sheet parallel to the wall, is not cut by it.
-            if (height >= 0.0 && height * height >= reach2) || !(reach2 > (1e-4 * self.r * wm).powi(2)) {
+            // A disc the wall misses, or one parallel to the wall, is not cut by it.
+            if (height >= 0.0 && height * height >= reach2) || !(reach2 > (1e-4 * self.r).powi(2)) {
                 continue;
             }
             if height < 0.0 {
@@ -344,6 +445,61 @@ impl Collection<'_> {
             .medium
             .map_or(1.0, |m| m.density_near(self.origin + w * t.max(0.0)));
         transmittance_share(self.transmittance, share) * (weight * density)
+    }
+
+    /// The disc to draw gather directions from ([`integrate_cone`]): a surface photon's, seen
+    /// from beyond 2R. Nearer, a ray towards a disc point would weigh up to 1/dist², unbounded
+    /// as the receiver nears the surface, and the cone's directions are kept.
+    pub(super) fn disc(&self) -> Option<SurfaceDisc> {
+        let m = self.sheet?;
+        let far = (self.centre - self.origin).length_squared() > 4.0 * self.r * self.r;
+        (self.r > 0.0 && far).then(|| SurfaceDisc {
+            origin: self.origin,
+            centre: self.centre,
+            frame: Frame::from_normal(m),
+            r: self.r,
+        })
+    }
+
+    /// [`Self::weight`] for a surface photon on the sheet with normal `m`: the ray collects it
+    /// where it crosses the surface, within R of it (the photon map's disc in the surface).
+    /// The integrand carries the VPL's f·cos and this kernel wants f, hence 1/|ω'·m|; the disc
+    /// is cut by the walls next to the photon (the receiver's own surface included: photons
+    /// end there too), and the light is attenuated to the crossing.
+    fn on_surface(&self, w: Vec3, m: Vec3) -> Rgb {
+        // R = 0: the cone is the direction to the photon alone, and the estimate the VPL's.
+        if self.r == 0.0 {
+            return self.transmittance;
+        }
+        let to = self.centre - self.origin;
+        let wm = w.dot(m);
+        let t = to.dot(m) / wm;
+        // A ray that never reaches the surface, or crosses it more than R from the photon,
+        // does not collect it (a NaN direction fails here as well and is counted upstream).
+        if !(t > 0.0) || !((w * t - to).length_squared() < self.r * self.r) {
+            return Rgb::ZERO;
+        }
+        let mut cuts = Cuts::default();
+        for wall in self.walls.planes() {
+            let above = (self.origin - wall.point).dot(wall.normal);
+            if above < -1e-3 * self.r {
+                continue;
+            }
+            // The crossing's height over the wall, and the disc's reach across the wall's
+            // line in the surface.
+            let height = above + t * w.dot(wall.normal);
+            let across = self.r * (wall.normal - m * wall.normal.dot(m));
+            let reach2 = across.length_squared();
+            if (height >= 0.0 && height * height >= reach2) || !(reach2 > (1e-4 * self.r).powi(2)) {
+                continue;
+            }
+            if height < 0.0 {
+                return Rgb::ZERO;
+            }
+            cuts.push(height, across);
+        }
+        let d = to.length();
+        transmittance_share(self.transmittance, t / d) * (cuts.weight(m) / wm.abs())
     }
 }
 
@@ -381,14 +537,14 @@ impl Cuts {
         self.count += 1;
     }
 
-    /// 1 / (the fraction of the disc facing `w` that every chord leaves): 1 without chords, the closed
+    /// 1 / (the fraction of the disc with normal `normal` that every chord leaves): 1 without chords, the closed
     /// form of a circular segment with one, and with more the disc clipped by their common
     /// polygon ([`kept_fraction`]). Exact for any number of chords: a product of one-chord
     /// fractions counts twice what two chords both remove (the receiver's and a wall's next to
     /// it: the blur gained 7 % for `Lms` 0.1 from a floor and a wall at R = 0.35) and removes
     /// too little where they cut opposite sides (a grazing ellipse reaching from the receiver
     /// to a wall: −1 %).
-    pub(super) fn weight(&self, w: Vec3) -> f32 {
+    pub(super) fn weight(&self, normal: Vec3) -> f32 {
         match self.count {
             0 => 1.0,
             1 => {
@@ -397,10 +553,10 @@ impl Cuts {
                 fraction.recip()
             }
             k => {
-                // Coordinates in the disc's plane (every `across` is perpendicular to ω'),
-                // radius 1: the first chord's direction and ω' × it.
+                // Coordinates in the disc's plane (every `across` lies in it), radius 1: the
+                // first chord's direction and the normal × it.
                 let e1 = self.across[0].normalize();
-                let e2 = w.cross(e1);
+                let e2 = normal.cross(e1);
                 let mut half_planes = [(Vec2::ZERO, 0.0); 1 + MAX_WALLS];
                 for i in 0..k {
                     let (v, reach) = (self.across[i], self.across[i].length());
