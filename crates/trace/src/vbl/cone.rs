@@ -270,7 +270,11 @@ fn integrate_disc(
         let lobe_share = wide.map_or(0.0, |l| nb as f32 * area * l.pdf(w));
         // A direction off the disc (a lobe's, or a disc point lost to rounding at its rim)
         // collects nothing: g is 0 there.
-        if q > 0.0 { g(w) / (na as f32 * q + lobe_share) } else { Rgb::ZERO }
+        if q > 0.0 {
+            g(w) / (na as f32 * q + lobe_share)
+        } else {
+            Rgb::ZERO
+        }
     };
     let mut sum = Rgb::ZERO;
     for k in 0..na {

@@ -741,9 +741,17 @@ mod tests {
         let centre = Vec3::new(0.4, -0.2, 0.7);
         for (name, origin) in [
             ("along the axis", centre + normal * 0.8),
-            ("at 80°", centre + (frame.s * 80f32.to_radians().sin() + normal * 80f32.to_radians().cos()) * 1.5),
+            (
+                "at 80°",
+                centre + (frame.s * 80f32.to_radians().sin() + normal * 80f32.to_radians().cos()) * 1.5,
+            ),
         ] {
-            let disc = SurfaceDisc { origin, centre, frame, r };
+            let disc = SurfaceDisc {
+                origin,
+                centre,
+                frame,
+                r,
+            };
             let (n, cells) = (200_000u32, 64usize);
             let mut observed = vec![0.0; cells];
             let (mut sum, mut sum2) = (0.0f64, 0.0f64);
@@ -763,7 +771,10 @@ mod tests {
             }
             chi2::chi2_test(&observed, &vec![n as f64 / cells as f64; cells], 0.01)
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
-            let (omega, se) = (sum / n as f64, ((sum2 / n as f64 - (sum / n as f64).powi(2)) / n as f64).sqrt());
+            let (omega, se) = (
+                sum / n as f64,
+                ((sum2 / n as f64 - (sum / n as f64).powi(2)) / n as f64).sqrt(),
+            );
             let (want, want_se) = if name == "along the axis" {
                 let h = (origin - centre).length() as f64;
                 (std::f64::consts::TAU * (1.0 - h / (h * h + (r * r) as f64).sqrt()), 0.0)
