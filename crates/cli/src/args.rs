@@ -258,6 +258,12 @@ pub(crate) struct RenderArgs {
     /// Radius reduction α of the paper's eq. 11, in (0, 1); smaller shrinks faster.
     #[arg(long, default_value_t = 0.7)]
     pub(crate) alpha: f32,
+    /// Many-light methods: the most memory a pass's light paths may take, in GiB (default:
+    /// 80 % of the memory available when the render starts, `MemAvailable` on Linux). The
+    /// records per path are measured by tracing a few of each set first; a pass estimated
+    /// beyond the limit is refused before it starts, naming the count to lower.
+    #[arg(long, value_name = "GIB")]
+    pub(crate) memory_limit: Option<f64>,
     /// Testing only (hidden): the many-light methods poison the first record of each gather
     /// of every pass with a NaN, on the CPU and the GPU, and the first path of each light set,
     /// so that a test can read the counts back through `--stats`, `--stats-json` and the EXR

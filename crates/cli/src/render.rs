@@ -186,6 +186,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         },
         gpu: device.gpu.clone(),
     };
+    check_pass_memory(&ts, &opts, args.memory_limit, args.seed)?;
     // `--backend auto` with a device worth trying: one small pass on each side decides.
     let backend = match (&device.gpu, device.measure) {
         (Some(gpu), true) => {
@@ -428,4 +429,26 @@ pub(crate) fn progress_bar(budget: &Budget) -> indicatif::ProgressBar {
             indicatif::ProgressStyle::with_template("{elapsed_precise} {spinner} {pos} passes ({per_sec})").unwrap(),
         ),
     }
+}
+
+/// Refuses a many-light render whose pass would not fit in memory (`--memory-limit`, by
+/// default 80 % of the memory available), before anything is traced at full size.
+fn check_pass_memory(ts: &TraceScene, opts: &RenderOptions, limit_gib: Option<f64>, seed: u32) -> Result<()> {
+    if opts.method == Method::Pt {
+        return Ok(());
+    }
+    let (limit, source) = match limit_gib {
+        Some(g) if g.is_finite() && g > 0.0 => (g * (1u64 << 30) as f64, "--memory-limit".to_string()),
+        Some(g) => bail!("--memory-limit must be a positive number of GiB, got {g}"),
+        None => match beamlight_render::memory::available() {
+            Some(bytes) => (
+                0.8 * bytes as f64,
+                format!("80 % of the {:.2} GiB available", bytes as f64 / (1u64 << 30) as f64),
+            ),
+            // Nothing to compare with: the fixed limits on the counts still hold.
+            None => return Ok(()),
+        },
+    };
+    let sets = beamlight_render::memory::estimate(ts, &opts.many_lights, opts.width, opts.height, seed);
+    beamlight_render::memory::check(&sets, limit, &source).map_err(anyhow::Error::msg)
 }

@@ -10,6 +10,7 @@ pub mod compare;
 pub mod components;
 pub mod film;
 pub mod many_lights;
+pub mod memory;
 pub mod method;
 pub mod options;
 pub mod output;
