@@ -290,8 +290,8 @@ fn integrate_disc(
     sum
 }
 
-/// A surface photon's collection disc (radius R about `centre` in the surface with normal
-/// `normal`) seen from `origin`, as a distribution of gather directions.
+/// A surface photon's collection disc (radius `r` about `centre` in the surface whose normal
+/// is `frame.n`) seen from `origin`, as a distribution of gather directions.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct SurfaceDisc {
     pub(super) origin: Vec3,
@@ -356,7 +356,12 @@ impl SurfaceDisc {
 /// +10–12.5 % at R = 0.3 (now +0.3–0.7 % and +1.4–3.5 %); in the 5-deep glossy fog box the side
 /// walls' `Lms` lost 1.3–1.8 % at R = 0.3. The surface disc needs no receiver cut (photons
 /// within R of the crossing are the same whoever looks), and its weight is f, not f·cos: the
-/// integrand carries the VPL's f·cos, so the weight divides by |cos θ|.
+/// integrand carries the VPL's f·cos, so the weight divides by |cos θ|. Seen from beyond 2R,
+/// its directions are drawn towards uniform points of the disc ([`Collection::disc`],
+/// [`integrate_cone`]), which cancels that 1/|cos θ|. In `cornell_glossy_fog` (32², 300
+/// passes, 16 seeds against `pt`) `Lms` went from −0.47 ± 0.21 % to −0.15 ± 0.21 %, at the
+/// cost of 10 % more per-pixel variance in `Lms` and `Lss` (7 % in the image): a receiver at
+/// height h over lit photons collects those below it with a weight that grows as ln(R/h).
 ///
 /// Where the ray leaves the medium through a wall, the discs are cut too: a photon next to a
 /// wall is collected by rays whose discs reach beyond it, where no photon can be. The photons
