@@ -253,6 +253,22 @@ fn cuts_push(cuts: ptr<function, Cuts>, height: f32, across: vec3<f32>) {
     (*cuts).count += 1u;
 }
 
+// `Cuts::push_wall`: a wall's chord of a disc of radius r (height: the collection point's
+// height over the wall; across: the disc's reach across it). False where the point lies
+// beyond the wall; a disc the wall misses, or one parallel to it, is not cut.
+fn cuts_push_wall(cuts: ptr<function, Cuts>, height: f32, across: vec3<f32>, r: f32) -> bool {
+    let reach2 = dot(across, across);
+    let parallel = 1e-4 * r;
+    if (height >= 0.0 && height * height >= reach2) || !(reach2 > parallel * parallel) {
+        return true;
+    }
+    if height < 0.0 {
+        return false;
+    }
+    cuts_push(cuts, height, across);
+    return true;
+}
+
 // `Cuts::weight`: 1 / (the fraction of the disc with normal `normal` that every chord leaves).
 fn cuts_weight(cuts: Cuts, normal: vec3<f32>) -> f32 {
     if cuts.count == 0u {
@@ -372,17 +388,9 @@ fn collection_weight(col: Collection, w: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let wall_n = dot(w, wall.normal);
-        let height = above + t * wall_n;
-        let across = col.r * (wall.normal - w * wall_n);
-        let reach2 = dot(across, across);
-        let parallel = 1e-4 * col.r;
-        if (height >= 0.0 && height * height >= reach2) || !(reach2 > parallel * parallel) {
-            continue;
-        }
-        if height < 0.0 {
+        if !cuts_push_wall(&cuts, above + t * wall_n, col.r * (wall.normal - w * wall_n), col.r) {
             return vec3<f32>(0.0);
         }
-        cuts_push(&cuts, height, across);
     }
     let weight = cuts_weight(cuts, w);
     // Clamped into the grid's box, as on the CPU.
@@ -416,16 +424,9 @@ fn collection_on_surface(col: Collection, w: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let height = above + t * dot(w, wall.normal);
-        let across = col.r * (wall.normal - m * dot(wall.normal, m));
-        let reach2 = dot(across, across);
-        let parallel = 1e-4 * col.r;
-        if (height >= 0.0 && height * height >= reach2) || !(reach2 > parallel * parallel) {
-            continue;
-        }
-        if height < 0.0 {
+        if !cuts_push_wall(&cuts, height, col.r * (wall.normal - m * dot(wall.normal, m)), col.r) {
             return vec3<f32>(0.0);
         }
-        cuts_push(&cuts, height, across);
     }
     let d = length_glam(to);
     return transmittance_share(col.transmittance, t / d) * (cuts_weight(cuts, m) / abs(wm));

@@ -433,17 +433,9 @@ impl Collection<'_> {
             }
             // The collection point's height over the wall and the disc's reach across it.
             let wall_n = w.dot(wall.normal);
-            let height = above + t * wall_n;
-            let across = self.r * (wall.normal - w * wall_n);
-            let reach2 = across.length_squared();
-            // A disc the wall misses, or one parallel to the wall, is not cut by it.
-            if (height >= 0.0 && height * height >= reach2) || !(reach2 > (1e-4 * self.r).powi(2)) {
-                continue;
-            }
-            if height < 0.0 {
+            if !cuts.push_wall(above + t * wall_n, self.r * (wall.normal - w * wall_n), self.r) {
                 return Rgb::ZERO;
             }
-            cuts.push(height, across);
         }
         let weight = cuts.weight(w);
         // Clamped into the grid's box: a point beyond a wall the probes did not find (one
@@ -497,15 +489,9 @@ impl Collection<'_> {
             // The crossing's height over the wall, and the disc's reach across the wall's
             // line in the surface.
             let height = above + t * w.dot(wall.normal);
-            let across = self.r * (wall.normal - m * wall.normal.dot(m));
-            let reach2 = across.length_squared();
-            if (height >= 0.0 && height * height >= reach2) || !(reach2 > (1e-4 * self.r).powi(2)) {
-                continue;
-            }
-            if height < 0.0 {
+            if !cuts.push_wall(height, self.r * (wall.normal - m * wall.normal.dot(m)), self.r) {
                 return Rgb::ZERO;
             }
-            cuts.push(height, across);
         }
         let d = to.length();
         transmittance_share(self.transmittance, t / d) * (cuts.weight(m) / wm.abs())
@@ -521,8 +507,7 @@ pub(super) fn transmittance_share(tr: Rgb, share: f32) -> Rgb {
 }
 
 /// The chords that cut one collection disc (the disc of radius R facing ω' at the collection
-/// point; for a surface photon the ellipse it projects to on the photon's sheet, whose area
-/// fractions are the disc's): the receiver's and at most one per wall. Each is a half-plane of
+/// point, or a surface photon's disc in its surface): the receiver's and at most one per wall. Each is a half-plane of
 /// the disc, given by `across`, the vector in the disc's plane towards the kept side whose
 /// length is the disc's reach across the chord, and `height`, the centre's distance from the
 /// chord on the kept side, both in the same units.
@@ -544,6 +529,22 @@ impl Cuts {
         self.across[self.count] = across;
         self.height[self.count] = height.max(0.0);
         self.count += 1;
+    }
+
+    /// Adds a wall's chord of a disc of radius `r`: `height` is the collection point's height
+    /// over the wall, `across` the disc's reach across it. False where the point lies beyond
+    /// the wall, where nothing is collected; a disc the wall misses, or one parallel to it
+    /// (no reach across), is not cut.
+    pub(super) fn push_wall(&mut self, height: f32, across: Vec3, r: f32) -> bool {
+        let reach2 = across.length_squared();
+        if (height >= 0.0 && height * height >= reach2) || !(reach2 > (1e-4 * r).powi(2)) {
+            return true;
+        }
+        if height < 0.0 {
+            return false;
+        }
+        self.push(height, across);
+        true
     }
 
     /// 1 / (the fraction of the disc with normal `normal` that every chord leaves): 1 without chords, the closed
