@@ -434,12 +434,16 @@ pub(crate) fn progress_bar(budget: &Budget) -> indicatif::ProgressBar {
 /// Refuses a many-light render whose pass would not fit in memory (`--memory-limit`, by
 /// default 80 % of the memory available), before anything is traced at full size.
 fn check_pass_memory(ts: &TraceScene, opts: &RenderOptions, limit_gib: Option<f64>, seed: u32) -> Result<()> {
+    if let Some(g) = limit_gib
+        && !(g.is_finite() && g > 0.0)
+    {
+        bail!("--memory-limit must be a positive number of GiB, got {g}");
+    }
     if opts.method == Method::Pt {
         return Ok(());
     }
     let (limit, source) = match limit_gib {
-        Some(g) if g.is_finite() && g > 0.0 => (g * (1u64 << 30) as f64, "--memory-limit".to_string()),
-        Some(g) => bail!("--memory-limit must be a positive number of GiB, got {g}"),
+        Some(g) => (g * (1u64 << 30) as f64, "--memory-limit".to_string()),
         None => match beamlight_render::memory::available() {
             Some(bytes) => (
                 0.8 * bytes as f64,
