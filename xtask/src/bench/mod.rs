@@ -29,6 +29,11 @@ pub const USAGE: &str = "usage: cargo xtask bench [options]
   --time-scale X        multiplies every budget and the reference time (default 1)
   --size N              image width and height (default 96)
   --ref-time S          seconds per reference half and estimator before scaling (default 60)
+  --ref-goal R          the reference's own relMSE to reach: below it, more rounds (each
+                        doubling one estimator's time) are rendered (default 2.5e-3, a
+                        quarter of the glass scenes' 1e-2 target; 0: one round)
+  --ref-cap X           the most time a reference takes, as a multiple of its first round's
+                        (default 4)
   --ref-renderer ID     the renderer identity the reference cache is keyed by (default: the
                         last commit touching the renderer's sources, '+dirty' with changes);
                         an earlier build's, to compare two builds against one reference
@@ -53,6 +58,8 @@ struct Options {
     scale: f64,
     size: u32,
     ref_time: f64,
+    ref_goal: f64,
+    ref_cap: f64,
     /// `None`: per scene, pt plus vrl where it has caustics.
     ref_methods: Option<Vec<String>>,
     /// `None`: [`renderer_id`].
@@ -85,6 +92,8 @@ fn parse(args: &[String]) -> Result<Options> {
         scale: 1.0,
         size: 96,
         ref_time: 60.0,
+        ref_goal: 2.5e-3,
+        ref_cap: 4.0,
         ref_methods: None,
         ref_renderer: None,
         repeats: 1,
@@ -129,6 +138,13 @@ fn parse(args: &[String]) -> Result<Options> {
             "--time-scale" => o.scale = num(flag, v)?,
             "--size" => o.size = num(flag, v)? as u32,
             "--ref-time" => o.ref_time = num(flag, v)?,
+            "--ref-goal" => {
+                o.ref_goal = v.parse().with_context(|| format!("{flag}: '{v}' is not a number"))?;
+                if !(o.ref_goal >= 0.0 && o.ref_goal.is_finite()) {
+                    bail!("{flag} must be 0 or positive, got {v}");
+                }
+            }
+            "--ref-cap" => o.ref_cap = num(flag, v)?.max(1.0),
             "--ref-renderer" => o.ref_renderer = Some(v.to_string()),
             "--ref-methods" => o.ref_methods = (v != "auto").then(|| list(v)),
             "--repeats" => o.repeats = num(flag, v)? as u32,
@@ -266,6 +282,8 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         seed_base: 1_000_001,
         methods: vec!["pt".into()],
         renderer: o.ref_renderer.clone().unwrap_or_else(|| renderer_id(root)),
+        goal: o.ref_goal,
+        max_seconds: 0.0,
     };
     let budgets: Vec<f64> = o.budgets.iter().map(|b| b * o.scale).collect();
     let mut summary = String::new();
@@ -273,7 +291,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
     let _ = writeln!(summary, "# Benchmark: run time against error\n");
     let _ = writeln!(
         summary,
-        "Command: `cargo xtask bench {}`. Machine: {} cores, {}. Image {}², budgets {} s (start-up included), {} repeat(s) per budget (medians). Reference: `pt` (and, where the scene has caustics, `vrl`) for 2 × {:.0} s per estimator and scene. Mitsuba 3: {}.\n",
+        "Command: `cargo xtask bench {}`. Machine: {} cores, {}. Image {}², budgets {} s (start-up included), {} repeat(s) per budget (medians). Reference: `pt` (and, where the scene has caustics, `vrl`) for 2 × {:.0} s per estimator and scene, then rounds doubling one estimator's time while its own relMSE is above {:.1e} (at most {}× the first round's time). Mitsuba 3: {}.\n",
         args.join(" "),
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
         if gpu {
@@ -285,6 +303,8 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         budgets.iter().map(|b| format!("{b:.3}")).collect::<Vec<_>>().join(", "),
         o.repeats,
         ref_settings.seconds_per_half,
+        o.ref_goal,
+        o.ref_cap,
         mitsuba
             .as_deref()
             .map_or(format!("not run ({})", mitsuba::INSTALL_HINT), |v| format!(
@@ -310,6 +330,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
             None => vec!["pt".into()],
         };
         let scene_ref = reference::RefSettings {
+            max_seconds: o.ref_cap * 2.0 * ref_settings.seconds_per_half * ref_methods.len() as f64,
             methods: ref_methods,
             ..ref_settings.clone()
         };

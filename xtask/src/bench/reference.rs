@@ -8,6 +8,14 @@
 //! relMSE(reference, truth) ≈ relMSE(half A, half B) / 4 (with the denominator taken at the
 //! reference, as the metric does). Every measured error includes this floor.
 //!
+//! A reference whose own error is above its goal grows in rounds: one estimator at a time
+//! renders every part again for as long as all its rounds so far (doubling its time), each
+//! round with new seeds and merged into its part by sample counts, so a part stays one
+//! independent render. The estimator extended is the one that lowers the combination's
+//! error most per second (on `lamp_in_glass` the path tracer's own relMSE is about 10 and
+//! unclamped `vrl`'s 1e-2: time given to `pt` there is lost). Rounds stop at the goal or
+//! when the next would pass the time cap.
+//!
 //! With two estimators, they are first checked against each other per component layer
 //! ([`CrossCheck`]): the difference of their image means (and of the means of 4 × 4 tiles)
 //! against standard errors from the parts' spread (batch means, which stay honest when an
@@ -46,19 +54,34 @@ pub struct RefSettings {
     /// Identifies the renderer (the last commit that touched its sources, plus "dirty" for
     /// uncommitted changes): a changed path tracer makes new references.
     pub renderer: String,
+    /// The merged reference's own relMSE that ends its rounds (0: one round only).
+    pub goal: f64,
+    /// The most wall seconds all rounds of all estimators may take together.
+    pub max_seconds: f64,
 }
 
 impl RefSettings {
     fn describe(&self) -> String {
         format!(
             "{} --components parts={PARTS} size={} seconds_per_half={} seed_base={} renderer={} \
-             many-light direct samples={MANY_LIGHT_DIRECT_SAMPLES}",
+             many-light direct samples={MANY_LIGHT_DIRECT_SAMPLES} goal={} max_seconds={}",
             self.methods.join("+"),
             self.size,
             self.seconds_per_half,
             self.seed_base,
-            self.renderer
+            self.renderer,
+            self.goal,
+            self.max_seconds
         )
+    }
+
+    /// Wall seconds of an estimator's first `rounds` rounds: 2 × `seconds_per_half`, doubled
+    /// by each round after the first.
+    fn seconds_of(&self, rounds: usize) -> f64 {
+        match rounds {
+            0 => 0.0,
+            r => 2.0 * self.seconds_per_half * (1u64 << (r - 1).min(40)) as f64,
+        }
     }
 }
 
@@ -155,6 +178,8 @@ pub struct Estimator {
     parts: Vec<Vec<(String, Image)>>,
     /// Its own estimated relMSE (beauty) from its halves.
     pub est_rel_mse: f64,
+    /// Rounds rendered (each part's time doubles with every round after the first).
+    pub rounds: usize,
 }
 
 /// A loaded reference.
@@ -206,78 +231,98 @@ impl CrossCheck {
     }
 }
 
-/// Renders (or finds in `dir`) the parts of one estimator.
-fn estimator(bin: &Path, dir: &Path, scene: &Path, settings: &RefSettings, index: usize) -> Result<(Value, Estimator)> {
-    let method = &settings.methods[index];
-    let meta_path = dir.join(format!("{method}.json"));
-    let file = |part: usize| dir.join(format!("{method}_{part}.exr"));
-    let meta: Value = match std::fs::read(&meta_path) {
-        Ok(bytes) if (0..PARTS).all(|p| file(p).is_file()) => serde_json::from_slice(&bytes)?,
-        _ => {
-            let seconds = settings.seconds_per_half / (PARTS / 2) as f64;
-            let mut parts = Vec::new();
-            let direct_samples = MANY_LIGHT_DIRECT_SAMPLES.to_string();
-            let extra_args: &[&str] = if method == "pt" {
-                &[]
-            } else {
-                &["--direct-samples", &direct_samples]
-            };
-            for part in 0..PARTS {
-                let seed = settings.seed_base + (index * PARTS + part) as u32;
-                eprintln!(
-                    "bench: reference {} {method} part {}/{PARTS}: {seconds:.0} s",
-                    scene.display(),
-                    part + 1
-                );
-                let t = BeamlightRun {
-                    bin,
-                    scene,
-                    output: file(part),
-                    method,
-                    backend: "cpu",
-                    budget: Budget::Seconds(seconds),
-                    seed,
-                    size: settings.size,
-                    components: true,
-                    extra_args,
-                }
-                .run()?;
-                parts.push(json!({"spp": t.passes, "wall_seconds": t.wall, "render_seconds": t.render, "seed": seed}));
-            }
-            let meta = json!({ "method": method, "parts": parts });
-            std::fs::write(&meta_path, serde_json::to_string_pretty(&meta)?)?;
-            meta
-        }
+/// The image of part `part` in round `round` of `method`.
+fn part_file(dir: &Path, method: &str, part: usize, round: usize) -> PathBuf {
+    match round {
+        0 => dir.join(format!("{method}_{part}.exr")),
+        r => dir.join(format!("{method}_{part}_r{r}.exr")),
+    }
+}
+
+/// The rounds of `method` complete in `dir` (their metadata and every part's image).
+fn rounds_on_disk(dir: &Path, method: &str) -> Result<(usize, Value)> {
+    let meta: Value = match std::fs::read(dir.join(format!("{method}.json"))) {
+        Ok(bytes) => serde_json::from_slice(&bytes)?,
+        Err(_) => json!({ "method": method, "rounds": [] }),
     };
-    let counts: Vec<u64> = (0..PARTS)
-        .map(|p| meta["parts"][p]["spp"].as_u64().unwrap_or(1).max(1))
-        .collect();
+    let listed = meta["rounds"].as_array().map_or(0, Vec::len);
+    let complete = (0..listed)
+        .take_while(|&r| (0..PARTS).all(|p| part_file(dir, method, p, r).is_file()))
+        .count();
+    Ok((complete, meta))
+}
+
+/// Renders the rounds of one estimator that `dir` lacks, up to `rounds`, and loads them, each
+/// part merged over its rounds.
+fn estimator(
+    bin: &Path,
+    dir: &Path,
+    scene: &Path,
+    settings: &RefSettings,
+    index: usize,
+    rounds: usize,
+) -> Result<(Value, Estimator)> {
+    let method = &settings.methods[index];
+    let (on_disk, meta) = rounds_on_disk(dir, method)?;
+    let mut round_metas: Vec<Value> = meta["rounds"].as_array().cloned().unwrap_or_default();
+    round_metas.truncate(on_disk);
+    let direct_samples = MANY_LIGHT_DIRECT_SAMPLES.to_string();
+    let extra_args: &[&str] = if method == "pt" {
+        &[]
+    } else {
+        &["--direct-samples", &direct_samples]
+    };
+    for round in on_disk..rounds {
+        // A round after the first lasts as long as the earlier ones together: the time doubles.
+        let seconds = (settings.seconds_of(round + 1) - settings.seconds_of(round)) / PARTS as f64;
+        let mut parts = Vec::new();
+        for part in 0..PARTS {
+            // Seeds apart per estimator, part and round (64 apart per round: at most 2 × 8 parts).
+            let seed = settings.seed_base + (index * PARTS + part) as u32 + 64 * round as u32;
+            eprintln!(
+                "bench: reference {} {method} round {} part {}/{PARTS}: {seconds:.0} s",
+                scene.display(),
+                round + 1,
+                part + 1
+            );
+            let t = BeamlightRun {
+                bin,
+                scene,
+                output: part_file(dir, method, part, round),
+                method,
+                backend: "cpu",
+                budget: Budget::Seconds(seconds),
+                seed,
+                size: settings.size,
+                components: true,
+                extra_args,
+            }
+            .run()?;
+            parts.push(json!({"spp": t.passes, "wall_seconds": t.wall, "render_seconds": t.render, "seed": seed}));
+        }
+        round_metas.push(Value::Array(parts));
+        let meta = json!({ "method": method, "rounds": round_metas });
+        std::fs::write(dir.join(format!("{method}.json")), serde_json::to_string_pretty(&meta)?)?;
+    }
+    let rounds = round_metas.len();
+    let count = |r: usize, p: usize| round_metas[r][p]["spp"].as_u64().unwrap_or(1).max(1);
+    // Each part is its rounds, and each half its parts, weighted by their sample counts, as
+    // one longer render would be.
+    let mut counts = Vec::new();
     let mut images = Vec::new();
     for part in 0..PARTS {
-        let (beauty, layers) = metrics::read_beauty_and_layers(&file(part))?;
-        images.push((beauty, layers));
-    }
-    // A half is its parts weighted by their sample counts, as one longer render would be.
-    let (first, _) = &images[0];
-    let zero = Image::new(first.width, first.height);
-    let half = |range: std::ops::Range<usize>| -> Result<(Image, Vec<(String, Image)>)> {
-        let total: u64 = counts[range.clone()].iter().sum();
-        let names = images[0].1.iter().map(|(n, _)| (n.clone(), zero.clone()));
-        let mut acc = (zero.clone(), names.collect::<Vec<_>>());
-        for p in range {
-            let w = counts[p] as f64 / total as f64;
-            acc.0 = metrics::blend(&acc.0, 1.0, &images[p].0, w)?;
-            if acc.1.len() != images[p].1.len() {
-                bail!("{method}: reference parts have different layers");
-            }
-            for ((n, l), (m, x)) in acc.1.iter_mut().zip(&images[p].1) {
-                if n != m {
-                    bail!("{method}: reference parts have different layers ({n} vs {m})");
-                }
-                *l = metrics::blend(l, 1.0, x, w)?;
-            }
+        let total: u64 = (0..rounds).map(|r| count(r, part)).sum();
+        let mut renders = Vec::new();
+        for r in 0..rounds {
+            let render = metrics::read_beauty_and_layers(&part_file(dir, method, part, r))?;
+            renders.push((render, count(r, part) as f64 / total as f64));
         }
-        Ok(acc)
+        counts.push(total);
+        images.push(weighted_sum(method, renders.iter().map(|(x, w)| (x, *w)))?);
+    }
+    let half = |range: std::ops::Range<usize>| {
+        let total: u64 = counts[range.clone()].iter().sum();
+        weighted_sum(method, range.map(|p| (&images[p], counts[p] as f64 / total as f64)))
     };
     let halves = [half(0..PARTS / 2)?, half(PARTS / 2..PARTS)?];
     let half_counts = [
@@ -288,14 +333,45 @@ fn estimator(bin: &Path, dir: &Path, scene: &Path, settings: &RefSettings, index
     let est = Estimator {
         method: method.clone(),
         half_counts,
-        seconds: (0..PARTS)
-            .map(|p| meta["parts"][p]["wall_seconds"].as_f64().unwrap_or(0.0))
+        seconds: round_metas
+            .iter()
+            .flat_map(|r| r.as_array().into_iter().flatten())
+            .map(|p| p["wall_seconds"].as_f64().unwrap_or(0.0))
             .sum(),
+        rounds,
         halves,
         parts: images.into_iter().map(|(_, l)| l).collect(),
         est_rel_mse,
     };
-    Ok((meta, est))
+    Ok((json!({ "method": method, "rounds": round_metas }), est))
+}
+
+/// A beauty image with its component layers.
+type Layered = (Image, Vec<(String, Image)>);
+
+/// Σ wᵢ · renderᵢ over beauty and layers, which must be the same in every render.
+fn weighted_sum<'a>(method: &str, renders: impl Iterator<Item = (&'a Layered, f64)>) -> Result<Layered> {
+    let mut acc: Option<Layered> = None;
+    for ((beauty, layers), w) in renders {
+        let (sum, sums) = acc.get_or_insert_with(|| {
+            let zero = Image::new(beauty.width, beauty.height);
+            (
+                zero.clone(),
+                layers.iter().map(|(n, _)| (n.clone(), zero.clone())).collect(),
+            )
+        });
+        *sum = metrics::blend(sum, 1.0, beauty, w)?;
+        if sums.len() != layers.len() {
+            bail!("{method}: reference renders have different layers");
+        }
+        for ((n, l), (m, x)) in sums.iter_mut().zip(layers) {
+            if n != m {
+                bail!("{method}: reference renders have different layers ({n} vs {m})");
+            }
+            *l = metrics::blend(l, 1.0, x, w)?;
+        }
+    }
+    acc.context("no renders to merge")
 }
 
 impl Estimator {
@@ -389,7 +465,8 @@ fn cross_check(name: &str, a: &[&Image], b: &[&Image], weight0: f64) -> CrossChe
     }
 }
 
-/// Makes the reference of `scene` (or reuses the cached one).
+/// Makes the reference of `scene` (or reuses the cached one), in rounds until its own error
+/// is within the goal or the time cap is reached.
 pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSettings) -> Result<Reference> {
     if settings.methods.is_empty() || settings.methods.len() > 2 {
         bail!("a reference takes one or two estimators, not {:?}", settings.methods);
@@ -398,22 +475,104 @@ pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSetti
     let dir = entry_dir(cache, scene, &key);
     let reused = cached(cache, scene, settings)?.is_some();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut metas = Vec::new();
-    let mut estimators = Vec::new();
-    for i in 0..settings.methods.len() {
-        let (meta, e) = estimator(bin, &dir, scene, settings, i)?;
-        metas.push(meta);
-        estimators.push(e);
+    // A cached entry resumes where its rounds ended (and renders nothing when they met the goal).
+    let mut rounds: Vec<usize> = settings
+        .methods
+        .iter()
+        .map(|m| Ok(rounds_on_disk(&dir, m)?.0.max(1)))
+        .collect::<Result<_>>()?;
+    loop {
+        let mut metas = Vec::new();
+        let mut estimators = Vec::new();
+        for (i, &r) in rounds.iter().enumerate() {
+            let (meta, e) = estimator(bin, &dir, scene, settings, i, r)?;
+            metas.push(meta);
+            estimators.push(e);
+        }
+        let merged = merge(estimators)?;
+        let used: f64 = rounds.iter().map(|&r| settings.seconds_of(r)).sum();
+        let next = (merged.est_rel_mse > settings.goal)
+            .then(|| next_round(&merged))
+            .flatten()
+            .filter(|&i| used + settings.seconds_of(rounds[i]) <= settings.max_seconds);
+        if let Some(i) = next {
+            eprintln!(
+                "bench: reference {}: own relMSE {:.2e} above the goal {:.2e}; {} renders a round more",
+                scene.display(),
+                merged.est_rel_mse,
+                settings.goal,
+                settings.methods[i]
+            );
+            rounds[i] += 1;
+            continue;
+        }
+        let meta = json!({
+            "key": key,
+            "scene": scene.display().to_string(),
+            "files": scene_files(scene)?.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+            "settings": settings.describe(),
+            "estimators": metas,
+        });
+        std::fs::write(dir.join("meta.json"), serde_json::to_string_pretty(&meta)?)?;
+        metrics::write_exr(&dir.join("reference.exr"), &merged.beauty)?;
+        return Ok(Reference { dir, reused, ..merged });
     }
-    let meta = json!({
-        "key": key,
-        "scene": scene.display().to_string(),
-        "files": scene_files(scene)?.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-        "settings": settings.describe(),
-        "estimators": metas,
-    });
-    std::fs::write(dir.join("meta.json"), serde_json::to_string_pretty(&meta)?)?;
+}
 
+/// The estimator whose next round (doubling its time) lowers the merged reference's error
+/// most per second, from each layer's variance between halves relative to the beauty (as
+/// relMSE weighs it), combined by inverse variance as [`merge`] does. Layers are taken as
+/// independent, which they are not within one estimator; this only orders the choices.
+fn next_round(merged: &Reference) -> Option<usize> {
+    let variances: Vec<Vec<f64>> = merged
+        .estimators
+        .iter()
+        .map(|e| {
+            e.halves[0]
+                .1
+                .iter()
+                .zip(&e.halves[1].1)
+                .map(|((_, a), (_, b))| relative_sq_diff(a, b, &merged.beauty))
+                .collect()
+        })
+        .collect();
+    let combined = |halved: Option<usize>| -> f64 {
+        (0..variances[0].len())
+            .map(|l| {
+                let inv: f64 = variances
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| {
+                        let v = if Some(i) == halved { v[l] / 2.0 } else { v[l] };
+                        if v > 0.0 { 1.0 / v } else { f64::INFINITY }
+                    })
+                    .sum();
+                1.0 / inv
+            })
+            .sum()
+    };
+    let now = combined(None);
+    (0..variances.len())
+        .map(|i| (i, (now - combined(Some(i))) / merged.estimators[i].seconds.max(1e-9)))
+        .filter(|(_, gain)| *gain > 0.0)
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
+}
+
+/// The mean over pixels and channels of (a − b)² / (reference² + 0.01), relMSE's weights.
+fn relative_sq_diff(a: &Image, b: &Image, reference: &Image) -> f64 {
+    let mut sum = 0.0;
+    for ((x, y), r) in a.pixels.iter().zip(&b.pixels).zip(&reference.pixels) {
+        for c in 0..3 {
+            let (e, r) = ((x[c] - y[c]) as f64, r[c] as f64);
+            sum += e * e / (r * r + 1e-2);
+        }
+    }
+    sum / (3 * a.pixels.len()).max(1) as f64
+}
+
+/// The estimators' renders merged into one reference (see the module doc).
+fn merge(estimators: Vec<Estimator>) -> Result<Reference> {
     // The combined halves: one estimator's as they are; two estimators' per layer, weighted by
     // their inverse estimated variances, with the beauty the sum of the combined layers.
     let mut cross = Vec::new();
@@ -489,9 +648,8 @@ pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSetti
         layer_est.push((name.clone(), halves_estimate(x, y, na, nb)?.1));
         layers.push((name.clone(), metrics::blend(x, wa, y, wb)?));
     }
-    metrics::write_exr(&dir.join("reference.exr"), &beauty)?;
     Ok(Reference {
-        dir,
+        dir: PathBuf::new(),
         beauty,
         layers,
         spp: estimators.iter().map(Estimator::spp).sum(),
@@ -499,7 +657,7 @@ pub fn make_or_reuse(bin: &Path, cache: &Path, scene: &Path, settings: &RefSetti
         halves_rel_mse,
         est_rel_mse,
         layer_est_rel_mse: layer_est,
-        reused,
+        reused: false,
         estimators,
         cross_check: cross,
     })
@@ -516,6 +674,8 @@ mod tests {
             seed_base: 1,
             methods: vec!["pt".into()],
             renderer: "abc".into(),
+            goal: 0.0,
+            max_seconds: 40.0,
         }
     }
 
@@ -628,5 +788,58 @@ mod tests {
         }
         let local = cross_check("x", &refs(&a), &refs(&corner), 0.5);
         assert!(!local.agrees(), "{local:?}");
+    }
+
+    /// An estimator of one layer (the beauty equal to it) whose parts are 1 + uniform noise of
+    /// ±`noise`, having taken `seconds`.
+    fn fake_estimator(noise: f32, seconds: f64, seed: u64) -> Estimator {
+        let parts: Vec<Image> = noisy_parts(1.0, seed)
+            .into_iter()
+            .map(|mut img| {
+                for p in img.pixels.iter_mut() {
+                    *p = glam::Vec3::ONE + (*p - glam::Vec3::ONE) * (noise / 0.2);
+                }
+                img
+            })
+            .collect();
+        let layered: Vec<Layered> = parts
+            .iter()
+            .map(|p| (p.clone(), vec![("Lss".to_string(), p.clone())]))
+            .collect();
+        let half = |r: std::ops::Range<usize>| weighted_sum("x", layered[r].iter().map(|x| (x, 0.25))).unwrap();
+        Estimator {
+            method: format!("m{seed}"),
+            half_counts: [4, 4],
+            seconds,
+            halves: [half(0..4), half(4..8)],
+            parts: layered.into_iter().map(|(_, l)| l).collect(),
+            est_rel_mse: 0.0,
+            rounds: 1,
+        }
+    }
+
+    /// The next round goes to the estimator that lowers the merged error most per second:
+    /// the one carrying the combination's weight when both cost alike (as `vrl` does on
+    /// `lamp_in_glass`, where `pt`'s own error is a thousand times larger), the other when
+    /// that one's doubling would cost a thousand times more. Fails if the gain is not divided
+    /// by the seconds or the halved variance is taken from the wrong estimator.
+    #[test]
+    fn the_next_round_goes_where_it_lowers_the_error_most_per_second() {
+        let merged = merge(vec![fake_estimator(0.5, 100.0, 1), fake_estimator(0.05, 100.0, 2)]).unwrap();
+        assert!(merged.cross_check[0].weight0 < 0.02, "{:?}", merged.cross_check);
+        assert_eq!(next_round(&merged), Some(1));
+        let merged = merge(vec![fake_estimator(0.5, 100.0, 1), fake_estimator(0.05, 1e5, 2)]).unwrap();
+        assert_eq!(next_round(&merged), Some(0));
+        // One estimator alone: it is the one to extend.
+        let merged = merge(vec![fake_estimator(0.5, 100.0, 3)]).unwrap();
+        assert_eq!(next_round(&merged), Some(0));
+    }
+
+    /// A round after the first lasts as long as all before it: the estimator's time doubles.
+    #[test]
+    fn rounds_double_an_estimators_time() {
+        let s = settings();
+        let times: Vec<f64> = (0..5).map(|r| s.seconds_of(r)).collect();
+        assert_eq!(times, [0.0, 20.0, 40.0, 80.0, 160.0]);
     }
 }

@@ -124,11 +124,15 @@ pub(super) fn scene_summary(
             .estimators
             .iter()
             .map(|e| format!(
-                "`{}` ({} {} in {} parts, own relMSE ≈ {:.2e})",
+                "`{}` ({} {} in {} parts{}, own relMSE ≈ {:.2e})",
                 e.method,
                 e.spp(),
                 if e.method == "pt" { "spp" } else { "passes" },
                 reference::PARTS,
+                match e.rounds {
+                    1 => String::new(),
+                    r => format!(" of {r} rounds"),
+                },
                 e.est_rel_mse
             ))
             .collect::<Vec<_>>()
@@ -209,8 +213,20 @@ pub(super) fn scene_summary(
     let pt = curves
         .iter()
         .find(|(k, _)| k.renderer == "beamlight" && k.method == "pt");
-    let target = target.or_else(|| pt.and_then(|(_, pts)| pts.get(pts.len() / 2)).map(|p| p.rel_mse));
-    if let Some(target) = target {
+    let asked = target.or_else(|| pt.and_then(|(_, pts)| pts.get(pts.len() / 2)).map(|p| p.rel_mse));
+    // A target the reference cannot resolve is raised to the floor's margin: a time to reach
+    // an error mostly made of the reference's own would rank nothing (issue 32's "1e-2, or 2x
+    // the reference's own floor, whichever is larger").
+    let floor_target = FLOOR_MARGIN * reference.est_rel_mse;
+    if let Some(target) = asked.map(|t| t.max(floor_target)) {
+        if asked.is_some_and(|t| t < floor_target) {
+            let _ = writeln!(
+                out,
+                "\nThe target relMSE {:.2e} is below {FLOOR_MARGIN} × the reference's own ({:.2e}); the times below are to {target:.2e} instead.",
+                asked.unwrap_or_default(),
+                reference.est_rel_mse
+            );
+        }
         // Time to the target, measured, or for the unbiased path tracers (whose error falls as
         // 1/t) extrapolated from their last budget, marked `~`.
         let floor = reference.est_rel_mse;

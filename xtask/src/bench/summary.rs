@@ -33,7 +33,7 @@ pub fn time_to_target(points: &[(f64, f64)], target: f64) -> Option<f64> {
 /// For an unbiased estimator that has not reached `target` within its measurements: when it
 /// would, if its own error keeps falling as 1/t from the last measurement. `floor` is the
 /// reference's own relMSE, which every measured error includes and no estimator can go below:
-/// the estimator's part of the last error is `e − floor`. `None` when the target is not above
+/// the estimator's part of the last error is `e − floor`. `None` when the target is below
 /// twice the floor (the reference could not tell) or the curve has no usable point.
 pub fn extrapolated_time(points: &[(f64, f64)], target: f64, floor: f64) -> Option<f64> {
     let (t, e) = points
@@ -41,7 +41,7 @@ pub fn extrapolated_time(points: &[(f64, f64)], target: f64, floor: f64) -> Opti
         .copied()
         .filter(|p| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite())
         .max_by(|a, b| a.0.total_cmp(&b.0))?;
-    if !(target > 2.0 * floor) || e <= target {
+    if !(target >= 2.0 * floor) || e <= target {
         return None;
     }
     Some(t * (e - floor) / (target - floor))
@@ -67,6 +67,9 @@ mod tests {
         // Not for a target the curve reached or one the reference cannot resolve.
         assert_eq!(extrapolated_time(&[(10.0, 0.1)], 0.2, 0.0), None);
         assert_eq!(extrapolated_time(&[(10.0, 0.1)], 0.01, 0.006), None);
+        // At twice the floor (where the summary raises a lower target to): 10 × 0.095 / 0.005.
+        let t = extrapolated_time(&[(10.0, 0.1)], 0.01, 0.005).unwrap();
+        assert!((t - 190.0).abs() < 1e-9, "{t}");
     }
 
     #[test]
