@@ -180,3 +180,29 @@ fn auto_takes_the_caustics_from_the_photon_estimators() {
         assert_eq!(only[c as usize], caustic, "{}", c.name());
     }
 }
+
+/// A lamp inside a glass globe (`lamp_in_glass`, and CARS's bulbs, and `cars_small`'s): all of
+/// its power leaves through glass, so next-event estimation never reaches it and the path
+/// tracer's estimate of every component but `direct` is heavy-tailed hits of the bulb behind
+/// the globe. `auto` takes them from `vbl` alone. A small light over a glass ball
+/// (`caustic_sphere`) sends the ball a few percent of its power: there only the caustics are
+/// `vbl`'s. Fails if the rays start on the wrong side of the emitter (the bulb then hits
+/// itself: share 0) or if glass is not told from the walls.
+#[test]
+fn auto_takes_light_behind_glass_from_vbl() {
+    let scenes = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    let load = |name: &str| TraceScene::new(beamlight_scene::load::load_scene(&scenes.join(name)).unwrap());
+    for name in ["lamp_in_glass.toml", "cars_small.toml"] {
+        let ts = load(name);
+        let share = beamlight_render::combine::power_through_delta(&ts);
+        assert!(share > 0.99, "{name}: {share}");
+        let only = beamlight_render::auto::vbl_only(&ts);
+        assert!(!only[Component::Direct as usize], "{name}");
+        assert!(
+            Component::ALL[1..].iter().all(|&c| only[c as usize]),
+            "{name}: {only:?}"
+        );
+    }
+    let share = beamlight_render::combine::power_through_delta(&load("caustic_sphere.toml"));
+    assert!(share < 0.2, "caustic_sphere: {share}");
+}

@@ -124,10 +124,15 @@ pub(crate) fn info(path: &Path) -> Result<()> {
             ));
         }
         if !blind.is_empty() {
-            plan.push(format!(
-                "{}: vbl alone (the path tracer cannot follow light from point, spot or directional lights through mirrors or glass, which reaches these)",
-                list(&blind)
-            ));
+            let why = if s.lights.is_empty() {
+                format!(
+                    "{:.0} % of the lights' power leaves them through glass or a mirror: next-event estimation cannot reach it, and the path tracer finds it only by rare, heavy-tailed hits of an emitter behind the glass",
+                    100.0 * beamlight_render::combine::power_through_delta(&ts)
+                )
+            } else {
+                "the path tracer cannot follow light from point, spot or directional lights through mirrors or glass, which reaches these".to_string()
+            };
+            plan.push(format!("{}: vbl alone ({why})", list(&blind)));
         }
         let plan = plan.join("; ");
         outln!(out, "auto        {plan}");
