@@ -29,9 +29,9 @@ pub const USAGE: &str = "usage: cargo xtask bench [options]
   --time-scale X        multiplies every budget and the reference time (default 1)
   --size N              image width and height (default 96)
   --ref-time S          seconds per reference half and estimator before scaling (default 60)
-  --ref-goal R          the reference's own relMSE to reach: below it, more rounds (each
-                        doubling one estimator's time) are rendered (default 2.5e-3, a
-                        quarter of the glass scenes' 1e-2 target; 0: one round)
+  --ref-goal R          the reference's own relMSE to reach: while it is above, more rounds
+                        (each doubling one estimator's time) are rendered (default 2.5e-3, a
+                        quarter of the glass scenes' 1e-2 target; 0: as many as the cap allows)
   --ref-cap X           the most time a reference takes, as a multiple of its first round's
                         (default 4)
   --ref-renderer ID     the renderer identity the reference cache is keyed by (default: the
@@ -283,6 +283,8 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         methods: vec!["pt".into()],
         renderer: o.ref_renderer.clone().unwrap_or_else(|| renderer_id(root)),
         goal: o.ref_goal,
+        // One round for the convention check's `pt` reference (its ratio accounts for the
+        // reference's own error); each bench scene's gets its cap below.
         max_seconds: 0.0,
     };
     let budgets: Vec<f64> = o.budgets.iter().map(|b| b * o.scale).collect();

@@ -54,7 +54,7 @@ pub struct RefSettings {
     /// Identifies the renderer (the last commit that touched its sources, plus "dirty" for
     /// uncommitted changes): a changed path tracer makes new references.
     pub renderer: String,
-    /// The merged reference's own relMSE that ends its rounds (0: one round only).
+    /// The merged reference's own relMSE that ends its rounds (0: rounds until the cap).
     pub goal: f64,
     /// The most wall seconds all rounds of all estimators may take together.
     pub max_seconds: f64,
