@@ -436,13 +436,14 @@ fn collection_on_surface(col: Collection, w: vec3<f32>) -> vec3<f32> {
 // `lobe` the sharper factor; a surface photon seen from beyond 2R draws its directions on its
 // disc (`integrate_disc`).
 fn integrate_cone(cone: Cone, max_dirs: u32, lobe: Lobe, fa: Lobe, fb: Lobe, col: Collection, rnd: ConeRandom) -> vec3<f32> {
-    let frame = frame_from_normal(cone.axis);
     let omega = TAU * cone.one_minus_cos;
-    var sum = vec3<f32>(0.0);
     let wide = 2.0 * cone.one_minus_cos >= lobe.scale * lobe.scale && omega > 0.0 && max_dirs >= 2u;
     if collection_has_disc(col) {
         return integrate_disc(cone, max_dirs, lobe, fa, fb, col, rnd, wide);
     }
+    // The cone's own directions, from here on.
+    let frame = frame_from_normal(cone.axis);
+    var sum = vec3<f32>(0.0);
     if !wide {
         let n = cone_directions(cone, max_dirs, lobe.scale);
         for (var k = 0u; k < n; k++) {

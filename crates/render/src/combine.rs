@@ -134,7 +134,7 @@ pub fn power_through_delta(ts: &TraceScene) -> f32 {
             let Some((_, hit)) = ts.intersect(o, e.dir, f32::INFINITY) else {
                 break;
             };
-            match &scene.materials[hit.material as usize].bsdf {
+            match &ts.material(&hit).bsdf {
                 Some(b) => {
                     if b.is_delta() {
                         behind += power;

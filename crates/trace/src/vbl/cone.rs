@@ -202,12 +202,13 @@ pub(super) fn integrate_cone(
     rnd: ConeRandom,
     mut g: impl FnMut(Vec3) -> Rgb,
 ) -> Rgb {
-    let frame = Frame::from_normal(cone.axis);
     let omega = std::f32::consts::TAU * cone.one_minus_cos;
     let wide = lobe.filter(|&(_, scale)| 2.0 * cone.one_minus_cos >= scale * scale && omega > 0.0 && max >= 2);
     if let Some(disc) = disc {
         return integrate_disc(&disc, cone, max, lobe, wide.map(|(l, _)| l), rnd, g);
     }
+    // The cone's own directions, from here on.
+    let frame = Frame::from_normal(cone.axis);
     let Some((lobe, _)) = wide else {
         let n = cone_directions(cone, max, lobe.map_or(1.0, |(_, scale)| scale));
         let mut sum = Rgb::ZERO;
