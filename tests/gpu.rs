@@ -1040,4 +1040,20 @@ fn binary_backends_agree_per_layer_and_the_gpu_runs_the_gathers() {
             "{method} --backend auto: not the image of the side it chose ({line})"
         );
     }
+    // With a time budget too short to pay for opening the device and trying it (on lavapipe
+    // 5-10 s for `vbl`'s kernels, measured or assumed), `--backend auto` stays on the CPU
+    // without opening it, and says why. Catches a short budget spent compiling kernels.
+    let out = dir.path().join("short.exr");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .args(["--method", "vbl", "--backend", "auto", "--time", "0.5"])
+        .args(["--width", &w.to_string(), "--height", &h.to_string()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("backend cpu (opening ") && err.contains("of the 0.5 s budget"),
+        "{err}"
+    );
 }

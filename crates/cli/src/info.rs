@@ -160,6 +160,13 @@ pub(crate) fn info(path: &Path) -> Result<()> {
             AutoChoice::Cpu(why) => on_cpu.push(format!("{} ({why})", m.name())),
         }
     }
+    // What opening the adapter is expected to cost, as `--backend auto` weighs it against a
+    // time budget.
+    let opening_vbl = match beamlight_render::backend::expected_opening(Method::Vbl) {
+        Some((s, true)) => (s, "as last measured"),
+        Some((s, false)) => (s, "expected, not yet measured"),
+        None => (0.0, "no adapter"),
+    };
     let mut parts = Vec::new();
     if let Some(name) = &adapter {
         if !on_gpu.is_empty() {
@@ -167,8 +174,11 @@ pub(crate) fn info(path: &Path) -> Result<()> {
         }
         if !measured.is_empty() {
             parts.push(format!(
-                "{}: on {name} or the CPU, whichever ran a small trial pass of the render faster (the render's first line says which, with the times)",
-                measured.join(", ")
+                "{}: on {name} or the CPU, whichever ran a small trial pass of the render faster (the render's first line says which, with the times); with a --time budget under {} x what opening {name} takes (here {:.1} s for vbl's kernels, {}), on the CPU without a trial",
+                measured.join(", "),
+                beamlight_render::backend::OPENING_BUDGET_RATIO,
+                opening_vbl.0,
+                opening_vbl.1
             ));
         }
     }

@@ -134,7 +134,12 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         );
     }
     let opening = Instant::now();
-    let device = beamlight_render::backend::open(args.backend.0, method, &ts.scene).map_err(anyhow::Error::msg)?;
+    let seconds = match budget {
+        Budget::Time(t) => Some(t.as_secs_f64()),
+        Budget::Passes(_) => None,
+    };
+    let device =
+        beamlight_render::backend::open(args.backend.0, method, &ts.scene, seconds).map_err(anyhow::Error::msg)?;
     let gpu_time = opening.elapsed();
     if args.stats {
         eprintln!(
@@ -191,6 +196,8 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
     let backend = match (&device.gpu, device.measure) {
         (Some(gpu), true) => {
             let trial = beamlight_render::backend::measure(&ts, &opts, gpu).map_err(anyhow::Error::msg)?;
+            // What opening and trying cost, for the next render with a time budget to weigh.
+            beamlight_render::backend::Opening::of(&gpu.gpu.info, method).record(opening.elapsed().as_secs_f64());
             let (w, h) = trial.size;
             let measured = format!(
                 "measured: a {w}x{h} {} pass took {:.3} s on the CPU, {:.3} s on the GPU",
@@ -365,8 +372,21 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
             r.vbl_passes.iter().max().unwrap_or(&0),
             result.passes
         ),
-        (None, Method::Pt) => format!("{} spp", result.passes),
-        (None, _) => format!("{} passes", result.passes),
+        (None, Method::Pt) => format!("{} spp", result.film.samples),
+        (None, _) => format!("{} passes", result.film.samples),
+    };
+    // The time budget's last pass, shortened to the time left, covered a share of the pixels.
+    let amount = match result.film.partial_passes() {
+        0 => amount,
+        n => {
+            let counts = result.film.partial_counts();
+            let covered = counts.iter().map(|&c| c as f64).sum::<f64>() / counts.len().max(1) as f64;
+            let what = if n == 1 { "pass" } else { "passes" };
+            format!(
+                "{amount} and {n} shortened {what} over {:.0} % of the pixels",
+                100.0 * covered / n as f64
+            )
+        }
     };
     eprintln!(
         "done: {} in {secs:.2} s, {amount} -> {}",

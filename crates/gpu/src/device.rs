@@ -50,6 +50,9 @@ pub enum GpuError {
     },
 }
 
+/// An adapter's name, kind and driver, as wgpu reports them.
+pub use wgpu::AdapterInfo;
+
 /// An open device with what the kernels need to know about it.
 pub struct Gpu {
     /// The first error wgpu reported outside any call's return value (validation, device

@@ -73,8 +73,17 @@ struct Header {
     discarded: Vec<u64>,
     #[serde(default)]
     dropped_light_paths: u64,
+    /// Partial passes (a time budget's shortened last pass) besides the whole `passes`; when
+    /// there are any, the body ends with each pixel's count of them, little-endian u32s, which
+    /// every film of the render shares.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    partial_passes: u64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     auto: Option<AutoHeader>,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 /// What an `auto` render keeps besides its films' sums ([`AutoSums`]).
@@ -109,9 +118,9 @@ pub struct Accumulators {
 }
 
 impl Accumulators {
-    /// Passes held.
+    /// Passes held, a shortened one included.
     pub fn passes(&self) -> u64 {
-        self.film.samples
+        self.film.passes()
     }
 
     /// The pass after the last one held.
@@ -144,7 +153,8 @@ impl Accumulators {
         let header = Header {
             fingerprint: self.fingerprint.clone(),
             first_pass: self.first_pass,
-            passes: self.passes(),
+            passes: self.film.samples,
+            partial_passes: self.film.partial_passes(),
             width: self.film.width,
             height: self.film.height,
             films: regular,
@@ -163,6 +173,11 @@ impl Accumulators {
             let (sum, sum_sq) = f.sums();
             for v in sum.iter().chain(sum_sq).flatten() {
                 bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        if self.film.partial_passes() > 0 {
+            for c in self.film.partial_counts() {
+                bytes.extend_from_slice(&c.to_le_bytes());
             }
         }
         output::write_atomic(path, &bytes)
@@ -205,16 +220,25 @@ impl Accumulators {
             return Err(err(path, "bad header: the auto render's entry is incomplete"));
         }
         let all_films = h.films as usize + h.auto.as_ref().map_or(0, |_| 2 * N);
-        if body.len() != film_bytes * all_films {
+        if h.partial_passes > 0 && h.auto.is_some() {
+            return Err(err(path, "bad header: an auto render with partial passes"));
+        }
+        let count_bytes = if h.partial_passes > 0 { pixels * 4 } else { 0 };
+        if body.len() != film_bytes * all_films + count_bytes {
             return Err(err(
                 path,
                 format!(
                     "truncated or padded: {} bytes of sums, expected {}",
                     body.len(),
-                    film_bytes * all_films
+                    film_bytes * all_films + count_bytes
                 ),
             ));
         }
+        let (body, counts) = body.split_at(film_bytes * all_films);
+        let counts: Vec<u32> = counts
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")))
+            .collect();
         let mut films = Vec::new();
         for (k, chunk) in body.chunks_exact(film_bytes).enumerate() {
             let values: Vec<f64> = chunk
@@ -233,10 +257,18 @@ impl Accumulators {
                     (a.samples[j], a.rejected[j])
                 }
             };
-            films.push(
-                Film::from_sums(h.width, h.height, triples(sum), triples(sum_sq), samples, rejected)
-                    .expect("sizes checked above"),
-            );
+            let film = Film::from_sums(h.width, h.height, triples(sum), triples(sum_sq), samples, rejected)
+                .expect("sizes checked above");
+            let film = match k < h.films as usize {
+                true => film.with_partial(h.partial_passes, counts.clone()).ok_or_else(|| {
+                    err(
+                        path,
+                        format!("a pixel counts more than the {} partial passes", h.partial_passes),
+                    )
+                })?,
+                false => film,
+            };
+            films.push(film);
         }
         let auto = h.auto.map(|a| {
             let vbl = films.split_off(films.len() - N);
@@ -514,6 +546,51 @@ mod tests {
                 .to_string()
                 .contains("not a beamlight accumulator file")
         );
+    }
+
+    /// A render that ended with a shortened pass: its per-pixel counts survive the file and a
+    /// merge, its pass range counts the shortened pass, and a file whose counts exceed its
+    /// partial passes is refused by name. Catches counts dropped on the way (the pixels'
+    /// means would then divide by the whole passes alone).
+    #[test]
+    fn a_shortened_pass_round_trips_and_merges() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.accum");
+        let shortened = |first: u64, passes: u32| {
+            let mut f = film(3, 2, passes, 1.0);
+            f.add_partial_pass(&[Rgb::splat(4.0); 6], |i| i % 2 == 0);
+            Accumulators {
+                fingerprint: "f".into(),
+                first_pass: first,
+                components: vec![f.clone()],
+                film: f,
+                auto: None,
+                discarded: Discards::default(),
+            }
+        };
+        let acc = shortened(0, 2);
+        assert_eq!((acc.passes(), acc.end_pass()), (3, 3));
+        acc.write(&path).unwrap();
+        let back = Accumulators::read(&path).unwrap();
+        assert_eq!(back.passes(), 3);
+        assert_eq!(back.film.partial_counts(), &[1, 0, 1, 0, 1, 0]);
+        assert_eq!(back.components[0].partial_counts(), &[1, 0, 1, 0, 1, 0]);
+        assert_eq!(back.film.image(), acc.film.image());
+        let (m, _) = Accumulators::merge(vec![("a".into(), back), ("b".into(), shortened(3, 1))], None).unwrap();
+        assert_eq!((m.end_pass(), m.film.samples, m.film.partial_passes()), (5, 3, 2));
+        assert_eq!(m.film.partial_counts(), &[2, 0, 2, 0, 2, 0]);
+        // Pixel 1's red: three samples of 1; pixel 0's: those and two of 4.
+        assert_eq!(
+            (m.film.image().pixels[0][0], m.film.image().pixels[1][0]),
+            (11.0 / 5.0, 1.0)
+        );
+        // A count above the partial passes: corrupt.
+        let mut bytes = std::fs::read(&path).unwrap();
+        let n = bytes.len();
+        bytes[n - 4..].copy_from_slice(&7u32.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let e = Accumulators::read(&path).unwrap_err().to_string();
+        assert!(e.contains("p.accum") && e.contains("partial passes"), "{e}");
     }
 
     #[test]

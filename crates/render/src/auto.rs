@@ -65,7 +65,7 @@ use crate::{
     schedule::{Outcome, Remaining, Schedule, Snapshot, Step},
     source::{Finished, N},
 };
-use beamlight_trace::{TraceScene, components::Component};
+use beamlight_trace::{TraceScene, camera_paths::PixelShare, components::Component};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -290,6 +290,7 @@ impl Auto {
                         source: PT,
                         pass: (self.est.pt_next - 1) as u32,
                         components,
+                        pixels: PixelShare::ALL,
                     }
                 })
                 .collect(),
@@ -299,6 +300,7 @@ impl Auto {
                     source: VBL,
                     pass: (self.est.vbl_next - 1) as u32,
                     components,
+                    pixels: PixelShare::ALL,
                 }]
             }
             // The passes `vbl` would run next: their radii, their light paths.
@@ -308,6 +310,7 @@ impl Auto {
                     source: PROBE,
                     pass: (self.est.vbl_next + self.probes_planned - 1) as u32,
                     components: self.est.needed,
+                    pixels: PixelShare::ALL,
                 }]
             }
         }

@@ -3,7 +3,7 @@
 use crate::method::Method;
 use beamlight_gpu::GpuBackend;
 use beamlight_scene::Scene;
-use std::sync::Arc;
+use std::{path::PathBuf, sync::Arc};
 
 /// `--backend`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,8 +63,130 @@ pub struct Device {
     pub measure: bool,
 }
 
-/// Opens the device of a render.
-pub fn open(backend: Backend, method: Method, scene: &Scene) -> Result<Device, String> {
+/// What opening a device for a method's kernels and the trial ([`measure`]) cost together, as
+/// last measured on this machine: the kernels are compiled then (on lavapipe by LLVM, on the
+/// render's cores; the first dispatch of a kernel compiles more, 175 s for `vbl`'s on a fresh
+/// Mesa shader cache, 2 s once cached). Kept in a small cache file
+/// (`$XDG_CACHE_HOME/beamlight/opening.json`, else `~/.cache/…`), so that `--backend auto`
+/// can tell before opening whether a time budget can afford it. Losing the file only costs
+/// the prior ([`Opening::expected`]); a file that cannot be read or written is ignored.
+pub struct Opening {
+    key: String,
+    file: Option<PathBuf>,
+}
+
+/// Seconds [`Opening::expected`] assumes before a measurement: on a CPU adapter, what
+/// opening lavapipe for `vbl`'s kernels and its trial took on 2 cores with Mesa's shader cache
+/// warm (6.0–7.8 s; `vrl`'s 0.5–0.8 s); on another, a guess that lets a first trial run.
+const OPENING_PRIOR_CPU_ADAPTER: f64 = 6.0;
+const OPENING_PRIOR_GPU: f64 = 1.0;
+
+/// `--backend auto` opens a device only when a time budget is at least this many times its
+/// opening (or there is no time budget): the trial pass then costs at most a quarter of the
+/// budget, and a device that gathers about 2× faster (lavapipe's `vbl` kernels, measured) can
+/// still gain it back.
+pub const OPENING_BUDGET_RATIO: f64 = 4.0;
+
+impl Opening {
+    pub fn of(adapter: &beamlight_gpu::device::AdapterInfo, method: Method) -> Opening {
+        let lights = match method.virtual_lights() {
+            Some(crate::many_lights::VirtualLights::Beams) => "vbl",
+            Some(crate::many_lights::VirtualLights::Rays) => "vrl",
+            None => "none",
+        };
+        let key = format!("{} / {lights} kernels", beamlight_gpu::device::describe(adapter));
+        Opening {
+            key,
+            file: Self::file(),
+        }
+    }
+
+    fn file() -> Option<PathBuf> {
+        let base = std::env::var_os("XDG_CACHE_HOME")
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+            .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+        Some(base.join("beamlight").join("opening.json"))
+    }
+
+    fn read_all(&self) -> serde_json::Map<String, serde_json::Value> {
+        self.file
+            .as_ref()
+            .and_then(|f| std::fs::read(f).ok())
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or_default()
+    }
+
+    /// The last measured seconds, if any.
+    pub fn measured(&self) -> Option<f64> {
+        self.read_all().get(&self.key).and_then(|v| v.as_f64())
+    }
+
+    /// The seconds to expect: the measured ones, or the prior for this kind of adapter.
+    pub fn expected(&self, cpu_adapter: bool) -> f64 {
+        self.measured().unwrap_or(match cpu_adapter {
+            true => OPENING_PRIOR_CPU_ADAPTER,
+            false => OPENING_PRIOR_GPU,
+        })
+    }
+
+    /// Records a measurement (best effort: a cache), keeping the other adapters' and kernel
+    /// sets'.
+    pub fn record(&self, seconds: f64) {
+        let Some(file) = &self.file else { return };
+        let mut all = self.read_all();
+        all.insert(self.key.clone(), serde_json::json!(seconds));
+        if let Some(dir) = file.parent()
+            && std::fs::create_dir_all(dir).is_ok()
+            && let Ok(bytes) = serde_json::to_vec_pretty(&all)
+        {
+            let _ = crate::output::write_atomic(file, &bytes);
+        }
+    }
+}
+
+/// Whether a time budget of `budget` seconds (`None`: a pass budget) affords opening a device
+/// expected to take `opening` seconds with its trial.
+fn affords(budget: Option<f64>, opening: f64) -> bool {
+    budget.is_none_or(|b| b >= OPENING_BUDGET_RATIO * opening)
+}
+
+/// The seconds opening the first adapter for `method`'s kernels is expected to take, and
+/// whether they were measured here (`None` without an adapter).
+pub fn expected_opening(method: Method) -> Option<(f64, bool)> {
+    let a = beamlight_gpu::device::adapters().into_iter().next()?;
+    let o = Opening::of(&a, method);
+    Some((
+        o.expected(beamlight_gpu::device::is_cpu_adapter(&a)),
+        o.measured().is_some(),
+    ))
+}
+
+/// Why `--backend auto` leaves the device closed for a time budget of `budget` seconds when
+/// opening it would take more than [`OPENING_BUDGET_RATIO`]'s share (`None`: open it).
+pub fn budget_too_short(
+    adapter: &beamlight_gpu::device::AdapterInfo,
+    method: Method,
+    budget: Option<f64>,
+) -> Option<String> {
+    let opening = Opening::of(adapter, method);
+    let cpu_adapter = beamlight_gpu::device::is_cpu_adapter(adapter);
+    let expected = opening.expected(cpu_adapter);
+    let budget = budget.filter(|_| !affords(budget, expected))?;
+    let source = match opening.measured() {
+        Some(_) => "as last measured here",
+        None if cpu_adapter => "expected of a CPU adapter, not yet measured here",
+        None => "not yet measured here",
+    };
+    Some(format!(
+        "opening {} for {}'s kernels and trying it takes about {expected:.1} s ({source}), more than 1/{OPENING_BUDGET_RATIO} of the {budget:.1} s budget",
+        adapter.name,
+        method.name()
+    ))
+}
+
+/// Opens the device of a render; `budget`: its time budget in seconds, when it has one.
+pub fn open(backend: Backend, method: Method, scene: &Scene, budget: Option<f64>) -> Result<Device, String> {
     let has_kernels = method.has_gpu_kernels();
     let gathers = match method.virtual_lights() {
         Some(crate::many_lights::VirtualLights::Beams) => "VBL/VSL gathers",
@@ -90,20 +212,30 @@ pub fn open(backend: Backend, method: Method, scene: &Scene) -> Result<Device, S
             let name = format!("gpu ({}: {what})", g.gpu.describe());
             fixed(has_kernels.then_some(g), name)
         }
-        Backend::Auto => match auto_choice(method) {
-            AutoChoice::Cpu(why) => fixed(None, format!("cpu ({why})")),
-            choice => match open() {
-                Ok(g) => {
-                    let name = format!("gpu ({}: {gathers})", g.gpu.describe());
-                    Device {
-                        gpu: Some(g),
-                        line: name,
-                        measure: matches!(choice, AutoChoice::Measure(_)),
+        Backend::Auto => {
+            let choice = auto_choice(method);
+            // A time budget too short to pay for opening the device leaves it closed.
+            let short = match &choice {
+                AutoChoice::Cpu(_) => None,
+                _ => beamlight_gpu::device::adapters()
+                    .first()
+                    .and_then(|a| budget_too_short(a, method, budget)),
+            };
+            match (choice, short) {
+                (AutoChoice::Cpu(why), _) | (_, Some(why)) => fixed(None, format!("cpu ({why})")),
+                (choice, None) => match open() {
+                    Ok(g) => {
+                        let name = format!("gpu ({}: {gathers})", g.gpu.describe());
+                        Device {
+                            gpu: Some(g),
+                            line: name,
+                            measure: matches!(choice, AutoChoice::Measure(_)),
+                        }
                     }
-                }
-                Err(e) => fixed(None, format!("cpu ({e})")),
-            },
-        },
+                    Err(e) => fixed(None, format!("cpu ({e})")),
+                },
+            }
+        }
     })
 }
 
@@ -145,6 +277,7 @@ pub fn measure(
     gpu: &GpuBackend,
 ) -> Result<Trial, String> {
     use crate::source::{ManyLights, N, PassOutput, PassSource};
+    use beamlight_trace::camera_paths::PixelShare;
     let source = |gpu, (w, h): (u32, u32)| ManyLights {
         ts,
         settings: opts.method.many_light_settings(ts, &opts.many_lights),
@@ -156,8 +289,13 @@ pub fn measure(
     let pass = opts.first_pass as u32;
     let time = |s: &ManyLights| -> Result<f64, String> {
         let clock = std::time::Instant::now();
-        s.start(pass, [true; N], PassOutput::new((s.width * s.height) as usize))?
-            .finish()?;
+        s.start(
+            pass,
+            [true; N],
+            PixelShare::ALL,
+            PassOutput::new((s.width * s.height) as usize),
+        )?
+        .finish()?;
         Ok(clock.elapsed().as_secs_f64())
     };
     let size = |side: u32| (opts.width.min(side), opts.height.min(side));
@@ -208,4 +346,42 @@ pub fn adapter_lines() -> Vec<String> {
         });
     }
     lines
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The opening cache keeps each adapter's and kernel set's last measurement, survives a
+    /// corrupt file (read as empty, then rewritten) and a missing one; a budget affords the
+    /// device from 4x its opening. Catches a record that drops the other keys, a corrupt
+    /// cache that fails the render, and the comparison turned round.
+    #[test]
+    fn the_opening_cache_keeps_the_last_measurements() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("beamlight").join("opening.json");
+        let at = |key: &str| Opening {
+            key: key.into(),
+            file: Some(file.clone()),
+        };
+        assert_eq!(at("a / vbl kernels").measured(), None);
+        assert_eq!(at("a / vbl kernels").expected(true), OPENING_PRIOR_CPU_ADAPTER);
+        at("a / vbl kernels").record(9.3);
+        at("a / vrl kernels").record(0.7);
+        at("a / vbl kernels").record(5.2);
+        assert_eq!(at("a / vbl kernels").measured(), Some(5.2));
+        assert_eq!(at("a / vrl kernels").expected(true), 0.7);
+        std::fs::write(&file, b"{ not json").unwrap();
+        assert_eq!(at("a / vrl kernels").measured(), None);
+        at("a / vrl kernels").record(0.6);
+        assert_eq!(at("a / vrl kernels").measured(), Some(0.6));
+        let nowhere = Opening {
+            key: "a".into(),
+            file: None,
+        };
+        nowhere.record(1.0);
+        assert_eq!(nowhere.measured(), None);
+        assert!(affords(None, 100.0) && affords(Some(24.0), 6.0));
+        assert!(!affords(Some(23.9), 6.0) && !affords(Some(2.0), 6.0));
+    }
 }

@@ -66,14 +66,22 @@ pub fn mean_and_variance(n: f64, sum: f64, sum_sq: f64) -> (f64, f64) {
 
 /// Per-pixel running sums of samples (and of their squares, for variance estimates), in f64 so
 /// that millions of samples can be added without losing the small ones.
+///
+/// Each pixel's estimate is the mean of its own samples: every pass adds one to each pixel,
+/// but a *partial* pass (a time budget's shortened last pass) only to the pixels it covered,
+/// which are counted apart.
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
     sum: Vec<[f64; 3]>,
     sum_sq: Vec<[f64; 3]>,
-    /// Samples per pixel accumulated so far (every pixel gets the same count).
+    /// Whole passes accumulated: samples every pixel has.
     pub samples: u64,
+    /// Partial passes accumulated, and per pixel how many of them covered it (empty while
+    /// there are none).
+    partial: u64,
+    extra: Vec<u32>,
     /// Samples that were NaN or infinite and were dropped (a bug if ever non-zero).
     pub rejected: u64,
 }
@@ -87,8 +95,55 @@ impl Film {
             sum: vec![[0.0; 3]; n],
             sum_sq: vec![[0.0; 3]; n],
             samples: 0,
+            partial: 0,
+            extra: Vec::new(),
             rejected: 0,
         }
+    }
+
+    /// Partial passes added ([`Film::add_partial_pass`]).
+    pub fn partial_passes(&self) -> u64 {
+        self.partial
+    }
+
+    /// Passes added, whole and partial.
+    pub fn passes(&self) -> u64 {
+        self.samples + self.partial
+    }
+
+    /// Per pixel, the partial passes that covered it (empty when there were none).
+    pub fn partial_counts(&self) -> &[u32] {
+        &self.extra
+    }
+
+    /// The samples pixel `i` holds.
+    pub fn count(&self, i: usize) -> u64 {
+        self.samples + self.extra.get(i).map_or(0, |&e| e as u64)
+    }
+
+    /// Adds a partial pass: a sample to each pixel `covered` says it covered (the others' values
+    /// are ignored). Non-finite samples are counted and dropped, as by [`Film::add_pass`].
+    pub fn add_partial_pass(&mut self, pass: &[Rgb], covered: impl Fn(usize) -> bool) {
+        assert_eq!(pass.len(), self.sum.len());
+        if self.extra.is_empty() {
+            self.extra = vec![0; self.sum.len()];
+        }
+        for (i, v) in pass.iter().enumerate() {
+            if !covered(i) {
+                continue;
+            }
+            self.extra[i] += 1;
+            if !v.is_finite() {
+                self.rejected += 1;
+                continue;
+            }
+            for c in 0..3 {
+                let x = v[c] as f64;
+                self.sum[i][c] += x;
+                self.sum_sq[i][c] += x * x;
+            }
+        }
+        self.partial += 1;
     }
 
     /// Adds one pass: one sample per pixel. Non-finite samples are counted and dropped so that
@@ -124,6 +179,15 @@ impl Film {
             }
         }
         self.samples += other.samples;
+        if !other.extra.is_empty() {
+            if self.extra.is_empty() {
+                self.extra = vec![0; self.sum.len()];
+            }
+            for (a, b) in self.extra.iter_mut().zip(&other.extra) {
+                *a += b;
+            }
+        }
+        self.partial += other.partial;
         self.rejected += other.rejected;
     }
 
@@ -149,8 +213,25 @@ impl Film {
             sum,
             sum_sq,
             samples,
+            partial: 0,
+            extra: Vec::new(),
             rejected,
         })
+    }
+
+    /// The film with `partial` partial passes whose per-pixel counts are `counts` (what a
+    /// checkpoint stores); `None` when the counts do not fit the film or the passes.
+    pub fn with_partial(mut self, partial: u64, counts: Vec<u32>) -> Option<Film> {
+        let fits = match partial {
+            0 => counts.is_empty() || counts.iter().all(|&c| c == 0),
+            _ => counts.len() == self.sum.len() && counts.iter().all(|&c| c as u64 <= partial),
+        };
+        if !fits {
+            return None;
+        }
+        self.partial = partial;
+        self.extra = if partial == 0 { Vec::new() } else { counts };
+        Some(self)
     }
 
     /// A film that reads as an estimate: its [`Film::image`] is `mean` and its
@@ -177,17 +258,22 @@ impl Film {
             sum,
             sum_sq,
             samples: n,
+            partial: 0,
+            extra: Vec::new(),
             rejected: 0,
         }
     }
 
-    /// The current estimate: the plain average of the samples per pixel.
+    /// The current estimate: the plain average of each pixel's samples.
     pub fn image(&self) -> Image {
-        let n = self.samples.max(1) as f64;
         let pixels = self
             .sum
             .iter()
-            .map(|s| Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32))
+            .enumerate()
+            .map(|(i, s)| {
+                let n = self.count(i).max(1) as f64;
+                Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32)
+            })
             .collect();
         Image {
             width: self.width,
@@ -198,7 +284,7 @@ impl Film {
 
     /// Pixel `i`'s channel `c`: its mean and the variance of that mean ([`mean_and_variance`]).
     pub fn entry(&self, i: usize, c: usize) -> (f64, f64) {
-        mean_and_variance(self.samples as f64, self.sum[i][c], self.sum_sq[i][c])
+        mean_and_variance(self.count(i) as f64, self.sum[i][c], self.sum_sq[i][c])
     }
 
     /// Estimated variance of each pixel's mean (sample variance / n).
@@ -220,6 +306,33 @@ impl Film {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A partial pass adds a sample to the pixels it covered alone: each pixel's mean and
+    /// variance are those of its own samples, and merging films adds the counts. Catches a
+    /// partial pass divided by the whole passes' count (pixel 0 would read 3.0, not 2.0) or
+    /// counted for every pixel (pixel 1 would read 2/3 of its value).
+    #[test]
+    fn a_partial_pass_counts_for_the_pixels_it_covered() {
+        let mut f = Film::new(2, 1);
+        f.add_pass(&[Rgb::splat(1.0), Rgb::splat(2.0)]);
+        f.add_pass(&[Rgb::splat(2.0), Rgb::splat(2.0)]);
+        f.add_partial_pass(&[Rgb::splat(3.0), Rgb::splat(100.0)], |i| i == 0);
+        assert_eq!((f.samples, f.partial_passes(), f.passes()), (2, 1, 3));
+        assert_eq!((f.count(0), f.count(1)), (3, 2));
+        assert_eq!(f.image().pixels, vec![Rgb::splat(2.0), Rgb::splat(2.0)]);
+        // Pixel 0: samples 1, 2, 3, sample variance 1, variance of the mean 1/3.
+        assert!((f.entry(0, 0).1 - 1.0 / 3.0).abs() < 1e-12);
+        assert_eq!(f.entry(1, 0).1, 0.0);
+        let mut g = Film::new(2, 1);
+        g.add_partial_pass(&[Rgb::splat(0.0), Rgb::splat(5.0)], |i| i == 1);
+        g.add_film(&f);
+        assert_eq!((g.samples, g.partial_passes(), g.partial_counts()), (2, 2, &[1, 1][..]));
+        assert_eq!(g.image().pixels, vec![Rgb::splat(2.0), Rgb::splat(3.0)]);
+        // Stored counts must fit the passes.
+        let stored = |partial, counts| Film::new(2, 1).with_partial(partial, counts).is_some();
+        assert!(stored(1, vec![1, 0]) && stored(0, vec![]));
+        assert!(!stored(1, vec![2, 0]) && !stored(1, vec![1]) && !stored(0, vec![1, 0]));
+    }
 
     #[test]
     fn downsample_averages_whole_blocks() {

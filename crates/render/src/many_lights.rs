@@ -18,7 +18,7 @@ use beamlight_gpu::{
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
-    camera_paths::{CameraPathSettings, GatherSet, MediaSegment, ShadingPoint, trace_camera_paths},
+    camera_paths::{CameraPathSettings, GatherSet, MediaSegment, PixelShare, ShadingPoint, trace_camera_pixels},
     caustics::{BeamMap, PhotonMap},
     components::Component,
     direct,
@@ -264,6 +264,9 @@ const N: usize = Component::ALL.len();
 pub struct PassTimes {
     /// Camera paths, light paths and the photon/beam maps.
     pub trace: Duration,
+    /// The part of `trace` that does not depend on the pixels a pass covers: the light paths,
+    /// the photon and beam maps, the VPLs' walls. What a pass over fewer pixels still costs.
+    pub light_side: Duration,
     /// The estimators that ran on the CPU (everything on the CPU backend; direct light and
     /// caustics with the GPU), overlapping the GPU's work.
     pub cpu_estimates: Duration,
@@ -408,13 +411,15 @@ impl PassInFlight {
     }
 }
 
-/// Traces pass `pass`, submits its gathers to `gpu` (when it has the method's kernels) and
-/// computes the rest on the CPU while the GPU works; [`PassInFlight::finish`] completes it.
+/// Traces pass `pass` over the pixels of `pixels`, submits its gathers to `gpu` (when it has
+/// the method's kernels) and computes the rest on the CPU while the GPU works;
+/// [`PassInFlight::finish`] completes it. Pixels the pass does not cover stay zero.
 pub fn start_pass(
     ts: &TraceScene,
     settings: &ManyLightSettings,
     w: u32,
     h: u32,
+    pixels: PixelShare,
     seed: u32,
     pass: u32,
     gpu: Option<&GpuBackend>,
@@ -422,7 +427,8 @@ pub fn start_pass(
     let mut out: [Vec<Rgb>; N] = std::array::from_fn(|_| vec![Rgb::ZERO; (w * h) as usize]);
     let mut times = PassTimes::default();
     let clock = Instant::now();
-    let gather = trace_camera_paths(ts, &CameraPathSettings::default(), w, h, seed, pass);
+    let gather = trace_camera_pixels(ts, &CameraPathSettings::default(), w, h, pixels, seed, pass);
+    let camera_done = clock.elapsed();
     // The camera's records, then the walks' through sharp media, whose gathers are credited
     // to `Lmm` (segments) or the component each walk point names.
     let points: Vec<ShadingPoint> = gather
@@ -492,6 +498,7 @@ pub fn start_pass(
         Vec::new()
     };
     times.trace = clock.elapsed();
+    times.light_side = times.trace - camera_done;
     // With light selection, each record draws `k` lights per component from the pass's trees.
     let r = r2.max(0.0).sqrt();
     let media_drawing = settings
@@ -580,7 +587,7 @@ pub fn start_pass(
             walks: false,
             ..Default::default()
         };
-        let extra = trace_camera_paths(ts, &direct_only, w, h, seed_k, pass);
+        let extra = trace_camera_pixels(ts, &direct_only, w, h, pixels, seed_k, pass);
         discarded += direct_light(ts, &extra, seed_k, pass, false, direct);
     }
     times.discarded.estimates[Component::Direct as usize] = discarded;

@@ -65,11 +65,16 @@ pub fn write_films(
         .collect();
     let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (*n, i)).collect();
     let mut header = vec![
-        ("beamlight.passes", film.samples.to_string()),
+        ("beamlight.passes", film.passes().to_string()),
         ("beamlight.spp", film.samples.to_string()),
         ("beamlight.rejected_samples", film.rejected.to_string()),
         ("beamlight.discarded_estimates", discarded.to_string()),
     ];
+    if film.partial_passes() > 0 {
+        // A time budget's last pass, shortened to a share of the pixels: those have one sample
+        // more than `beamlight.spp`.
+        header.push(("beamlight.partial_passes", film.partial_passes().to_string()));
+    }
     header.extend(metadata.iter().cloned());
     write_exr_layers(path, &image, &named, &header)?;
     Ok(image)

@@ -124,7 +124,7 @@ pub fn render_from(
         for step in steps {
             let clock = Instant::now();
             let out = run.free.pop().unwrap_or_else(|| PassOutput::new(pixels));
-            let flight = sources[step.source].start(step.pass, step.components, out)?;
+            let flight = sources[step.source].start(step.pass, step.components, step.pixels, out)?;
             in_flight.push_back(Started {
                 step,
                 flight,

@@ -11,6 +11,7 @@ use crate::{
     combine::{AutoReport, AutoSums},
     source::{Components, Finished, N},
 };
+use beamlight_trace::camera_paths::PixelShare;
 use rayon::prelude::*;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -23,6 +24,8 @@ pub struct Step {
     /// The pass index in that source's global sequence (what its random numbers derive from).
     pub pass: u32,
     pub components: Components,
+    /// The pixels it covers: all, but in a time budget's shortened last pass.
+    pub pixels: PixelShare,
 }
 
 /// What the budget leaves when the loop asks for the next unit.
@@ -65,6 +68,11 @@ pub trait Schedule {
 }
 
 /// Every pass of one source, averaged: `pt`, `vrl`, `vrl-clamped` and `vbl`.
+///
+/// With a time budget the last pass is shortened to the time left: it covers a share of the
+/// pixels ([`PixelShare`]), sized by the measured cost of a pass ([`Pace`]), and each pixel's
+/// estimate is the mean of its own samples. So the render ends at the budget whatever a pass
+/// costs (a 1280×720 `vbl` pass takes half a minute), instead of up to half a pass away.
 pub struct EveryPass {
     film: Film,
     /// One film per component, or none when the render does not keep them.
@@ -72,11 +80,10 @@ pub struct EveryPass {
     next_pass: u64,
     started: u64,
     finished: u64,
-    /// Wall time between the last few pass completions (for the time budget).
-    recent_periods: VecDeque<Duration>,
-    /// Units completed (the periods recorded).
-    completed: u64,
-    last_completion: Instant,
+    pace: Pace,
+    /// The share of the pixels of the last pass absorbed, when it was shortened (its period is
+    /// not a whole pass's).
+    shortened: Option<PixelShare>,
 }
 
 impl EveryPass {
@@ -96,45 +103,119 @@ impl EveryPass {
             next_pass: first_pass,
             started: 0,
             finished: 0,
-            recent_periods: VecDeque::new(),
-            completed: 0,
-            last_completion: Instant::now(),
+            pace: Pace::new(),
+            shortened: None,
         }
     }
 }
 
-/// The time between pass completions to plan with: the mean of the last few.
-fn period(recent: &VecDeque<Duration>) -> f64 {
-    recent.iter().map(Duration::as_secs_f64).sum::<f64>() / recent.len().max(1) as f64
+/// How fast passes go, measured: the time between pass completions and the part of a pass
+/// that does not shrink with its pixels (the light side: light paths, maps and trees).
+#[derive(Debug)]
+pub(crate) struct Pace {
+    /// Wall time between the last few pass completions.
+    recent: VecDeque<Duration>,
+    /// Units completed (the periods recorded).
+    completed: u64,
+    last_completion: Instant,
+    /// Running sums of the passes' light-side seconds and of what a pass would take alone
+    /// (its CPU share and its GPU kernels one after the other), and the passes they sum.
+    fixed: (f64, u64),
+    alone: f64,
+    /// Seconds per share of the pixels beyond the fixed part, as the last shortened pass took
+    /// them (`None` before one): a pass alone does not overlap another's GPU work as the
+    /// periods do, so a second shortened pass (when the first left time) plans by this.
+    per_share: Option<f64>,
 }
 
-/// How many recent pass periods [`period`] averages.
+/// How many recent pass periods [`Pace::period`] averages.
 const PERIODS: usize = 4;
 
-/// `recent` after a pass completed `period` after the one before: the first period (which
-/// carries the render's warm-up: threads starting, memory first touched) is replaced by the
-/// second, and only the last [`PERIODS`] are kept.
-fn record_period(recent: &mut VecDeque<Duration>, completed: u64, period: Duration) {
-    if completed == 2 || recent.len() == PERIODS {
-        recent.pop_front();
+impl Pace {
+    pub(crate) fn new() -> Self {
+        Self {
+            recent: VecDeque::new(),
+            completed: 0,
+            last_completion: Instant::now(),
+            fixed: (0.0, 0),
+            alone: 0.0,
+            per_share: None,
+        }
     }
-    recent.push_back(period);
+
+    /// The time between pass completions to plan with: the mean of the last few.
+    fn period(&self) -> f64 {
+        self.recent.iter().map(Duration::as_secs_f64).sum::<f64>() / self.recent.len().max(1) as f64
+    }
+
+    /// A pass's seconds that do not depend on its pixels, at most its period.
+    fn fixed(&self) -> f64 {
+        (self.fixed.0 / self.fixed.1.max(1) as f64).min(self.period())
+    }
+
+    /// A whole pass completed `period` after the one before: the first period (which carries
+    /// the render's warm-up: threads starting, memory first touched) is replaced by the
+    /// second, and only the last [`PERIODS`] are kept.
+    fn record(&mut self, period: Duration) {
+        self.completed += 1;
+        if self.completed == 2 || self.recent.len() == PERIODS {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(period);
+    }
+
+    /// A shortened pass over `pixels` completed `period` after the pass before.
+    fn record_shortened(&mut self, period: Duration, pixels: PixelShare) {
+        let share = pixels.share();
+        if share > 0.0 {
+            self.per_share = Some((period.as_secs_f64() - self.fixed()).max(0.0) / share);
+        }
+    }
+
+    /// What to start with `left` seconds of the budget to go, while `pending` (a pass whose
+    /// GPU work still runs) completes about a period after the last completion: a whole pass
+    /// while one fits with room to spare, then passes over the share of the pixels that fits,
+    /// then nothing. Only whole passes start behind a pending pass: the end of a pass whose
+    /// GPU work overlaps another's is too uncertain to plan the last one by (on lavapipe the
+    /// periods of `vrl` varied from 3.0 to 5.7 s).
+    fn next(&self, left: f64, pending: Option<PixelShare>) -> Option<PixelShare> {
+        let (period, fixed) = (self.period(), self.fixed());
+        let ahead = match pending {
+            Some(p) if p.is_all() => (period - self.last_completion.elapsed().as_secs_f64()).max(0.0),
+            Some(_) => return None,
+            None => 0.0,
+        };
+        // Before a shortened pass has shown it: a pass alone, whose GPU work overlaps nothing,
+        // at its slowest (on lavapipe the "GPU" shares the cores with the CPU's share).
+        let alone = self.alone / self.fixed.1.max(1) as f64;
+        let per_share = self.per_share.unwrap_or(period.max(alone) - fixed);
+        match plan_share(period, fixed, per_share, left - ahead) {
+            Some(p) if pending.is_some() && !p.is_all() => None,
+            plan => plan,
+        }
+    }
 }
 
-/// Whether a new pass should start with `left` seconds of the budget to go, when passes
-/// finish `period` seconds apart and it would be the `queued`-th to finish from now (the one
-/// still on the GPU comes first): yes when it is expected to end nearer the budget's end than
-/// the render would without it, i.e. when it would overrun by less than stopping after the
-/// ones before it underruns. The render then ends within half a period of the budget,
-/// either side, instead of up to a whole period early.
-pub(crate) fn worth_starting(period: f64, queued: u32, left: f64) -> bool {
-    let end_with = period * queued as f64;
-    let end_without = period * (queued - 1) as f64;
-    end_with - left < left - end_without
+/// A whole pass starts when this many periods are left, so that one slower than the mean (by
+/// up to a quarter) still ends in time, before the shortened one.
+const ROOM: f64 = 1.25;
+
+/// The pixels of a pass that fits in `avail` seconds when a whole one takes `period`, `fixed`
+/// of them whatever its pixels and `per_share` more per share of them: all when it fits with
+/// [`ROOM`] to spare, a share when part of it does (the time left after the fixed part, over
+/// the part that scales, at most the share that leaves the same room), `None` when not even
+/// the fixed part does.
+pub(crate) fn plan_share(period: f64, fixed: f64, per_share: f64, avail: f64) -> Option<PixelShare> {
+    if avail >= ROOM * period {
+        return Some(PixelShare::ALL);
+    }
+    let share = ((avail - fixed) / per_share.max(1e-9)).min(1.0 / ROOM);
+    (share > 0.0).then(|| PixelShare::of(share))
 }
 
 impl Schedule for EveryPass {
     fn plan(&mut self, remaining: Remaining, pending: Option<&Step>) -> Option<Vec<Step>> {
+        let mut pixels = PixelShare::ALL;
         if let Remaining::Time { left, .. } = remaining {
             if self.finished == 0 {
                 // Until a pass has finished there is no estimate of a pass's time: the first
@@ -142,8 +223,12 @@ impl Schedule for EveryPass {
                 if self.started > 0 {
                     return None;
                 }
-            } else if !worth_starting(period(&self.recent_periods), 1 + pending.is_some() as u32, left) {
-                return None;
+            } else {
+                pixels = self.pace.next(left, pending.map(|s| s.pixels))?;
+                // A pass of no pixel would only cost its fixed part.
+                if !pixels.is_all() && pixels.share() * (self.film.width * self.film.height) as f64 <= 1.0 {
+                    return None;
+                }
             }
         }
         let pass = self.next_pass as u32;
@@ -153,22 +238,42 @@ impl Schedule for EveryPass {
             source: 0,
             pass,
             components: [true; N],
+            pixels,
         }])
     }
 
-    fn absorb(&mut self, _step: &Step, finished: &Finished, _seconds: f64) {
-        self.film.add_pass(&finished.out.beauty);
-        self.components
-            .par_iter_mut()
-            .zip(finished.out.components.par_iter())
-            .for_each(|(f, b)| f.add_pass(b));
+    fn absorb(&mut self, step: &Step, finished: &Finished, _seconds: f64) {
+        if step.pixels.is_all() {
+            self.film.add_pass(&finished.out.beauty);
+            self.components
+                .par_iter_mut()
+                .zip(finished.out.components.par_iter())
+                .for_each(|(f, b)| f.add_pass(b));
+        } else {
+            let covered = |i: usize| step.pixels.contains(step.pass, i as u32);
+            self.film.add_partial_pass(&finished.out.beauty, covered);
+            self.components
+                .par_iter_mut()
+                .zip(finished.out.components.par_iter())
+                .for_each(|(f, b)| f.add_partial_pass(b, covered));
+        }
+        if let Some(times) = &finished.times {
+            self.pace.fixed.0 += times.light_side.as_secs_f64();
+            self.pace.fixed.1 += 1;
+            let kernels: f64 = times.kernels.iter().sum();
+            self.pace.alone += (times.trace + times.cpu_estimates).as_secs_f64() + kernels;
+        }
+        self.shortened = (!step.pixels.is_all()).then_some(step.pixels);
         self.finished += 1;
     }
 
     fn unit_done(&mut self) {
-        self.completed += 1;
-        record_period(&mut self.recent_periods, self.completed, self.last_completion.elapsed());
-        self.last_completion = Instant::now();
+        let period = self.pace.last_completion.elapsed();
+        match self.shortened {
+            None => self.pace.record(period),
+            Some(pixels) => self.pace.record_shortened(period, pixels),
+        }
+        self.pace.last_completion = Instant::now();
     }
 
     fn snapshot(&self) -> Snapshot<'_> {
@@ -193,35 +298,58 @@ impl Schedule for EveryPass {
 mod tests {
     use super::*;
 
-    /// The time budget's planning: a pass starts when it ends nearer the budget than stopping
-    /// does. Catches a rule that stops a whole period early (the old one: `left` 0.9 periods
-    /// refused) or that starts a pass with no time for it (`left` 0.4 periods accepted).
+    /// A time budget planned pass by pass as [`plan_share`] does, with passes that take what
+    /// the model says: whole passes while they fit with room to spare, then at most two
+    /// shortened to the time left. The render then ends at the budget (up to rounding the
+    /// share to 2⁻³²), never after it, for any period, fixed part and budget; the old rule (a
+    /// whole pass when it ends nearer the budget) missed by up to half a period either way.
+    /// Catches a share that forgets the fixed part (ends late by up to `fixed`), a whole pass
+    /// started without room for it, and a render that stops with time for part of a pass.
     #[test]
-    fn a_pass_starts_when_it_ends_nearer_the_budget() {
-        // One pass at a time (nothing on the GPU): the pass ends at `period`.
-        assert!(worth_starting(1.0, 1, 0.9));
-        assert!(worth_starting(1.0, 1, 0.6));
-        assert!(!worth_starting(1.0, 1, 0.4));
-        assert!(!worth_starting(1.0, 1, 0.0));
-        assert!(!worth_starting(1.0, 1, -0.2));
-        // With a pass still on the GPU, a new one ends after it, two periods from now.
-        assert!(worth_starting(1.0, 2, 1.6));
-        assert!(!worth_starting(1.0, 2, 1.4));
-        // A budget of passes `period` long, planned one at a time from the start, ends
-        // within half a period of the budget, whatever the budget and the period.
-        for period in [0.01, 0.3, 2.5] {
-            for i in 1..200 {
-                let budget = period * i as f64 / 16.0;
-                let mut end = 0.0;
-                while worth_starting(period, 1, budget - end) {
-                    end += period;
+    fn a_time_budget_ends_with_a_pass_shortened_to_the_time_left() {
+        for period in [0.004, 0.3, 2.5, 38.0] {
+            for fixed_share in [0.0, 0.1, 0.5] {
+                let fixed = period * fixed_share;
+                for i in 1..200 {
+                    let budget = period * i as f64 / 16.0;
+                    let (mut end, mut shortened) = (0.0, 0);
+                    while let Some(pixels) = plan_share(period, fixed, period - fixed, budget - end) {
+                        // What rounding leaves: a pass of no pixel, which `EveryPass` refuses.
+                        if pixels.share() * 1e6 <= 1.0 {
+                            break;
+                        }
+                        end += match pixels.is_all() {
+                            true => {
+                                assert!(budget - end >= ROOM * period, "{period} {fixed} {budget}: no room");
+                                period
+                            }
+                            false => {
+                                shortened += 1;
+                                fixed + pixels.share() * (period - fixed)
+                            }
+                        };
+                        assert!(shortened <= 2, "{period} {fixed} {budget}: a third shortened pass");
+                    }
+                    let slack = budget - end;
+                    assert!(slack >= -1e-9 * period, "{period} {fixed} {budget}: ends at {end}");
+                    // Only the fixed part of a pass that does not fit may be left unused.
+                    assert!(
+                        slack <= fixed + 1e-9 * period,
+                        "{period} {fixed} {budget}: ends at {end}"
+                    );
                 }
-                assert!(
-                    (end - budget).abs() <= period / 2.0 + 1e-12,
-                    "{period} {budget}: ends at {end}"
-                );
             }
         }
+        // Nothing starts without time for more than its fixed part.
+        assert_eq!(plan_share(1.0, 0.2, 0.8, 0.1), None);
+        assert_eq!(plan_share(1.0, 0.0, 1.0, 0.0), None);
+        assert_eq!(plan_share(1.0, 0.0, 1.0, -0.5), None);
+        assert_eq!(plan_share(1.0, 0.2, 0.8, 1.25), Some(PixelShare::ALL));
+        assert_eq!(plan_share(1.0, 0.2, 0.8, 0.6), Some(PixelShare::of(0.5)));
+        // A pass alone measured slower per share than the periods say: planned by that.
+        assert_eq!(plan_share(1.0, 0.2, 1.6, 0.6), Some(PixelShare::of(0.25)));
+        // A whole pass would fit, but without room: the share that leaves it.
+        assert_eq!(plan_share(1.0, 0.0, 1.0, 1.1), Some(PixelShare::of(0.8)));
     }
 
     /// The planning period leaves the warm-up out once a later pass shows the steady cost,
@@ -229,11 +357,11 @@ mod tests {
     /// others) planning a short budget to stop early, and a window that never forgets.
     #[test]
     fn the_period_leaves_the_warm_up_out() {
-        let mut recent = VecDeque::new();
+        let mut pace = Pace::new();
         let mut means = Vec::new();
-        for (i, ms) in [300, 100, 120, 140, 160, 180].into_iter().enumerate() {
-            record_period(&mut recent, i as u64 + 1, Duration::from_millis(ms));
-            means.push(period(&recent));
+        for ms in [300, 100, 120, 140, 160, 180] {
+            pace.record(Duration::from_millis(ms));
+            means.push(pace.period());
         }
         let expect = [0.3, 0.1, 0.11, 0.12, 0.13, 0.15];
         for (m, e) in means.iter().zip(expect) {

@@ -10,6 +10,7 @@ use beamlight_gpu::GpuBackend;
 use beamlight_scene::{Rgb, rng::Sampler};
 use beamlight_trace::{
     TraceScene,
+    camera_paths::PixelShare,
     components::Component,
     pt::{self, PathTracerSettings},
 };
@@ -64,11 +65,13 @@ fn both(a: Components, b: Components) -> Components {
 /// An estimator that renders passes.
 pub trait PassSource: Sync {
     /// Starts pass `pass` of the components in `components` that its settings compute (the
-    /// others stay zero and cost nothing), into `out`.
+    /// others stay zero and cost nothing) over the pixels of `pixels` (the others stay zero),
+    /// into `out`.
     fn start<'a>(
         &'a self,
         pass: u32,
         components: Components,
+        pixels: PixelShare,
         out: PassOutput,
     ) -> Result<Box<dyn InFlight + 'a>, String>;
 }
@@ -114,6 +117,7 @@ impl PassSource for PathTracer<'_> {
         &'a self,
         pass: u32,
         components: Components,
+        pixels: PixelShare,
         mut out: PassOutput,
     ) -> Result<Box<dyn InFlight + 'a>, String> {
         out.fit((self.width * self.height) as usize, self.split);
@@ -126,6 +130,7 @@ impl PassSource for PathTracer<'_> {
             &settings,
             self.width,
             self.height,
+            pixels,
             self.seed,
             pass,
             &mut out.beauty,
@@ -168,6 +173,7 @@ impl PassSource for ManyLights<'_> {
         &'a self,
         pass: u32,
         components: Components,
+        pixels: PixelShare,
         mut out: PassOutput,
     ) -> Result<Box<dyn InFlight + 'a>, String> {
         out.fit((self.width * self.height) as usize, true);
@@ -175,8 +181,17 @@ impl PassSource for ManyLights<'_> {
             components: both(components, self.settings.components),
             ..self.settings
         };
-        let flight = many_lights::start_pass(self.ts, &settings, self.width, self.height, self.seed, pass, self.gpu)
-            .map_err(|e| format!("pass {pass} on the GPU: {e}"))?;
+        let flight = many_lights::start_pass(
+            self.ts,
+            &settings,
+            self.width,
+            self.height,
+            pixels,
+            self.seed,
+            pass,
+            self.gpu,
+        )
+        .map_err(|e| format!("pass {pass} on the GPU: {e}"))?;
         Ok(Box::new(ManyLightPass {
             flight,
             out,
@@ -212,14 +227,16 @@ impl InFlight for ManyLightPass<'_> {
     }
 }
 
-/// One sample per pixel, rows in parallel; with component buffers (one per `Component::ALL`
-/// entry, or none) also each pixel's sample split by component.
+/// One sample per pixel of `pixels` (the others get zero), rows in parallel; with component
+/// buffers (one per `Component::ALL` entry, or none) also each pixel's sample split by
+/// component.
 #[allow(clippy::too_many_arguments)]
 pub fn path_trace_pass(
     ts: &TraceScene,
     settings: &PathTracerSettings,
     w: u32,
     h: u32,
+    pixels: PixelShare,
     seed: u32,
     pass: u32,
     out: &mut [Rgb],
@@ -242,7 +259,12 @@ pub fn path_trace_pass(
                     c.fill(Rgb::ZERO);
                 }
                 for (x, px) in row.iter_mut().enumerate() {
-                    let mut s = Sampler::new(seed, pass, y as u32 * w + x as u32);
+                    let pixel = y as u32 * w + x as u32;
+                    if !pixels.contains(pass, pixel) {
+                        *px = Rgb::ZERO;
+                        continue;
+                    }
+                    let mut s = Sampler::new(seed, pass, pixel);
                     let mut sum = Rgb::ZERO;
                     pt::sample_pixel_split(ts, settings, x as u32, y as u32, w, h, &mut s, &mut |k, l| {
                         comps[k as usize][x] += l;
@@ -254,8 +276,19 @@ pub fn path_trace_pass(
     } else {
         rows.for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
-                let mut s = Sampler::new(seed, pass, y as u32 * w + x as u32);
-                *px = pt::sample_pixel(ts, settings, x as u32, y as u32, w, h, &mut s);
+                let pixel = y as u32 * w + x as u32;
+                *px = match pixels.contains(pass, pixel) {
+                    true => pt::sample_pixel(
+                        ts,
+                        settings,
+                        x as u32,
+                        y as u32,
+                        w,
+                        h,
+                        &mut Sampler::new(seed, pass, pixel),
+                    ),
+                    false => Rgb::ZERO,
+                };
             }
         });
     }

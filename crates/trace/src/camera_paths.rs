@@ -125,6 +125,47 @@ impl Default for CameraPathSettings {
     }
 }
 
+/// The pixels a pass covers: every one, or (a time budget's shortened last pass) a share of
+/// them, each pixel in or out by a hash of the pass and its index. Scattered rather than a
+/// band of rows, so that the pixels with one sample more do not show as a band of less noise.
+/// The films count each pixel's own samples ([`PixelShare::contains`] says which).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelShare {
+    /// A pixel is in when its hash is below this, out of 2³² (2³²: all of them).
+    threshold: u64,
+}
+
+impl PixelShare {
+    pub const ALL: PixelShare = PixelShare { threshold: 1 << 32 };
+
+    /// About `share` of the pixels (clamped to [0, 1]).
+    pub fn of(share: f64) -> PixelShare {
+        let share = if share.is_nan() { 0.0 } else { share.clamp(0.0, 1.0) };
+        PixelShare {
+            threshold: (share * (1u64 << 32) as f64).round() as u64,
+        }
+    }
+
+    pub fn is_all(&self) -> bool {
+        self.threshold >= 1 << 32
+    }
+
+    /// The expected share of the pixels covered.
+    pub fn share(&self) -> f64 {
+        self.threshold as f64 / (1u64 << 32) as f64
+    }
+
+    /// Whether pass `pass` covers `pixel`. The hash is the pass's and the pixel's alone (no
+    /// seed), so a film can tell which pixels a partial pass covered from its index.
+    pub fn contains(&self, pass: u32, pixel: u32) -> bool {
+        self.is_all() || (pixel_hash(pass, pixel) as u64) < self.threshold
+    }
+}
+
+fn pixel_hash(pass: u32, pixel: u32) -> u32 {
+    beamlight_scene::rng::hash4(0x0b5e_55ed, pass, pixel, 0)
+}
+
 /// Traces one camera ray per pixel for pass `pass` with the random stream
 /// `(seed, pass, pixel)`. A ray that leaves the scene inside an unbounded medium is cut as
 /// [`media::extent`] says.
@@ -133,6 +174,21 @@ pub fn trace_camera_paths(
     settings: &CameraPathSettings,
     width: u32,
     height: u32,
+    seed: u32,
+    pass: u32,
+) -> GatherSet {
+    trace_camera_pixels(ts, settings, width, height, PixelShare::ALL, seed, pass)
+}
+
+/// [`trace_camera_paths`] for the pixels of `pixels` alone (the others see nothing: their
+/// `emitted` stays zero and they leave no records). A covered pixel's camera path is the one
+/// the whole pass traces for it.
+pub fn trace_camera_pixels(
+    ts: &TraceScene,
+    settings: &CameraPathSettings,
+    width: u32,
+    height: u32,
+    pixels: PixelShare,
     seed: u32,
     pass: u32,
 ) -> GatherSet {
@@ -160,6 +216,9 @@ pub fn trace_camera_paths(
                 for y in rows.clone() {
                     for x in x0..(x0 + TILE).min(width) {
                         let pixel = y * width + x;
+                        if !pixels.contains(pass, pixel) {
+                            continue;
+                        }
                         let mut s = Sampler::new(seed, pass, pixel);
                         let j = s.next_2d();
                         let film = Vec2::new((x as f32 + j.x) / width as f32, (y as f32 + j.y) / height as f32);
@@ -385,5 +444,41 @@ fn walk_sharp_media(
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A share covers about that share of the pixels, and two passes' shares are independent
+    /// draws (their overlap is the product), so that partial passes spread over the image.
+    /// Tolerance: 5 binomial standard deviations of the counts (a false failure about once
+    /// in 10⁶ runs; the hashes are fixed, so it either always passes or always fails). Catches
+    /// a share off by more than ~1.5 % of 9216 pixels, and a hash that ignores the pass (two
+    /// passes would then cover the same pixels: overlap 0.3 instead of 0.09).
+    #[test]
+    fn a_share_covers_its_share_of_the_pixels_independently_per_pass() {
+        let n = 96 * 96u32;
+        let within = |count: usize, p: f64| {
+            let sd = (n as f64 * p * (1.0 - p)).sqrt();
+            (count as f64 - n as f64 * p).abs() <= 5.0 * sd
+        };
+        let share = PixelShare::of(0.3);
+        let a: Vec<bool> = (0..n).map(|i| share.contains(5, i)).collect();
+        let b: Vec<bool> = (0..n).map(|i| share.contains(6, i)).collect();
+        let count = |v: &[bool]| v.iter().filter(|&&x| x).count();
+        assert!(
+            within(count(&a), 0.3) && within(count(&b), 0.3),
+            "{} {}",
+            count(&a),
+            count(&b)
+        );
+        let both = a.iter().zip(&b).filter(|(x, y)| **x && **y).count();
+        assert!(within(both, 0.09), "{both}");
+        assert!((0..n).all(|i| PixelShare::ALL.contains(5, i) && PixelShare::of(1.0).contains(5, i)));
+        assert!((0..n).all(|i| !PixelShare::of(0.0).contains(5, i)));
+        assert!(!PixelShare::of(0.999).is_all() && PixelShare::of(1.5).is_all());
+        assert_eq!(PixelShare::of(f64::NAN), PixelShare::of(0.0));
     }
 }
