@@ -372,19 +372,20 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
             r.vbl_passes.iter().max().unwrap_or(&0),
             result.passes
         ),
-        (None, Method::Pt) => format!("{} spp", result.film.samples),
-        (None, _) => format!("{} passes", result.film.samples),
+        (None, Method::Pt) => format!("{} spp", result.passes),
+        (None, _) => format!("{} passes", result.passes),
     };
-    // The time budget's last pass, shortened to the time left, covered a share of the pixels.
-    let amount = match result.film.partial_passes() {
+    // The time budget's last passes, shortened to the time left, covered a share of the
+    // pixels (those of a resumed checkpoint are not this run's).
+    let before = resumed.as_ref().map_or(0, |a| a.film.partial_passes());
+    let amount = match result.film.partial_passes() - before {
         0 => amount,
         n => {
             let counts = result.film.partial_counts();
             let covered = counts.iter().map(|&c| c as f64).sum::<f64>() / counts.len().max(1) as f64;
-            let what = if n == 1 { "pass" } else { "passes" };
             format!(
-                "{amount} and {n} shortened {what} over {:.0} % of the pixels",
-                100.0 * covered / n as f64
+                "{amount}, the last {n} shortened to {:.0} % of the pixels on average",
+                100.0 * covered / result.film.partial_passes() as f64
             )
         }
     };

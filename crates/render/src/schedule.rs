@@ -118,10 +118,12 @@ pub(crate) struct Pace {
     /// Units completed (the periods recorded).
     completed: u64,
     last_completion: Instant,
-    /// Running sums of the passes' light-side seconds and of what a pass would take alone
-    /// (its CPU share and its GPU kernels one after the other), and the passes they sum.
-    fixed: (f64, u64),
+    /// Running sums over the passes that report their times (the many-light ones) of their
+    /// light-side seconds and of what each would take alone (its CPU share and its GPU
+    /// kernels one after the other), and how many passes they sum.
+    light_side: f64,
     alone: f64,
+    timed: u64,
     /// Seconds per share of the pixels beyond the fixed part, as the last shortened pass took
     /// them (`None` before one): a pass alone does not overlap another's GPU work as the
     /// periods do, so a second shortened pass (when the first left time) plans by this.
@@ -137,8 +139,9 @@ impl Pace {
             recent: VecDeque::new(),
             completed: 0,
             last_completion: Instant::now(),
-            fixed: (0.0, 0),
+            light_side: 0.0,
             alone: 0.0,
+            timed: 0,
             per_share: None,
         }
     }
@@ -150,7 +153,7 @@ impl Pace {
 
     /// A pass's seconds that do not depend on its pixels, at most its period.
     fn fixed(&self) -> f64 {
-        (self.fixed.0 / self.fixed.1.max(1) as f64).min(self.period())
+        (self.light_side / self.timed.max(1) as f64).min(self.period())
     }
 
     /// A whole pass completed `period` after the one before: the first period (which carries
@@ -187,7 +190,7 @@ impl Pace {
         };
         // Before a shortened pass has shown it: a pass alone, whose GPU work overlaps nothing,
         // at its slowest (on lavapipe the "GPU" shares the cores with the CPU's share).
-        let alone = self.alone / self.fixed.1.max(1) as f64;
+        let alone = self.alone / self.timed.max(1) as f64;
         let per_share = self.per_share.unwrap_or(period.max(alone) - fixed);
         match plan_share(period, fixed, per_share, left - ahead) {
             Some(p) if pending.is_some() && !p.is_all() => None,
@@ -258,10 +261,10 @@ impl Schedule for EveryPass {
                 .for_each(|(f, b)| f.add_partial_pass(b, covered));
         }
         if let Some(times) = &finished.times {
-            self.pace.fixed.0 += times.light_side.as_secs_f64();
-            self.pace.fixed.1 += 1;
             let kernels: f64 = times.kernels.iter().sum();
+            self.pace.light_side += times.light_side.as_secs_f64();
             self.pace.alone += (times.trace + times.cpu_estimates).as_secs_f64() + kernels;
+            self.pace.timed += 1;
         }
         self.shortened = (!step.pixels.is_all()).then_some(step.pixels);
         self.finished += 1;
