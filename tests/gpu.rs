@@ -1041,7 +1041,7 @@ fn binary_backends_agree_per_layer_and_the_gpu_runs_the_gathers() {
         );
     }
     // With a time budget too short to pay for opening the device and trying it (on lavapipe
-    // 5-10 s for `vbl`'s kernels, measured or assumed), `--backend auto` stays on the CPU
+    // 7-10 s with the trial for `vbl`'s kernels, measured or assumed), `--backend auto` stays on the CPU
     // without opening it, and says why. Catches a short budget spent compiling kernels.
     let out = dir.path().join("short.exr");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_beamlight"))

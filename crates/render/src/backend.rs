@@ -75,10 +75,11 @@ pub struct Opening {
     file: Option<PathBuf>,
 }
 
-/// Seconds [`Opening::expected`] assumes before a measurement: on a CPU adapter, what
+/// Seconds [`Opening::expected`] assumes before a measurement: on a CPU adapter, about what
 /// opening lavapipe for `vbl`'s kernels and its trial took on 2 cores with Mesa's shader cache
-/// warm (6.0–7.8 s; `vrl`'s 0.5–0.8 s); on another, a guess that lets a first trial run.
-const OPENING_PRIOR_CPU_ADAPTER: f64 = 6.0;
+/// warm (7.3–9.3 s, the opening alone 5.2–6.9 s; `vrl`'s 0.6–0.9 s with the trial); on
+/// another, a guess that lets a first trial run.
+const OPENING_PRIOR_CPU_ADAPTER: f64 = 8.0;
 const OPENING_PRIOR_GPU: f64 = 1.0;
 
 /// `--backend auto` opens a device only when a time budget is at least this many times its
