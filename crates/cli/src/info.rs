@@ -174,7 +174,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
         }
         if !measured.is_empty() {
             parts.push(format!(
-                "{}: on {name} or the CPU, whichever ran a small trial pass of the render faster (the render's first line says which, with the times); with a --time budget under {} x what opening {name} takes (here {:.1} s for vbl's kernels, {}), on the CPU without a trial",
+                "{}: on {name} or the CPU, whichever ran a small trial pass of the render faster (the render's first line says which, with the times); with a --time budget under {} x what opening {name} and the trial take (here {:.1} s with vbl's kernels, {}), on the CPU without a trial",
                 measured.join(", "),
                 beamlight_render::backend::OPENING_BUDGET_RATIO,
                 opening_vbl.0,
