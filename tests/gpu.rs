@@ -788,6 +788,63 @@ fn vbl_renders_match_across_backends_in_a_sharp_medium() {
     compare_renders(Method::Vbl, scene);
 }
 
+/// A shortened pass (a time budget's last, here over 60 % of the pixels) of `vbl` on both
+/// backends: the pixels it leaves out are zero in every layer of both, and the layers agree
+/// as whole passes do ([`compare_layers`]). Catches a GPU result written to a pixel the pass
+/// did not cover or to the wrong one when the records skip pixels (the records' pixels no
+/// longer follow their indices).
+#[test]
+fn a_shortened_vbl_pass_matches_across_backends() {
+    use beamlight_render::source::{ManyLights, N, PassOutput, PassSource};
+    use beamlight_trace::camera_paths::PixelShare;
+    let Some(_) = beamlight_gpu::device::for_tests() else {
+        return;
+    };
+    let ts = TraceScene::new(bounded_fog_with_mirror());
+    let backend = GpuBackend::open(&ts.scene).unwrap();
+    let given = ManyLightSettings {
+        light_paths_per_pass: 24,
+        caustic_paths: Some(1024),
+        beam_paths: 256,
+        media_light_samples: Some(6),
+        ..Default::default()
+    };
+    let settings = Method::Vbl.many_light_settings(&ts, &given);
+    let (w, pass, share) = (24u32, 2u32, PixelShare::of(0.6));
+    let run = |gpu: Option<&GpuBackend>| -> Vec<(String, Vec<Rgb>)> {
+        let source = ManyLights {
+            ts: &ts,
+            settings,
+            width: w,
+            height: w,
+            seed: 11,
+            gpu,
+        };
+        let out = PassOutput::new((w * w) as usize);
+        let done = source.start(pass, [true; N], share, out).unwrap().finish().unwrap();
+        std::iter::once(("beauty".to_string(), done.out.beauty))
+            .chain(
+                Component::ALL
+                    .iter()
+                    .zip(done.out.components)
+                    .map(|(c, v)| (c.name().to_string(), v)),
+            )
+            .collect()
+    };
+    let (cpu, gpu) = (run(None), run(Some(&backend)));
+    let covered = (0..w * w).filter(|&i| share.contains(pass, i)).count();
+    assert!(covered > 0 && covered < (w * w) as usize, "{covered} pixels covered");
+    for (name, layer) in cpu.iter().chain(&gpu) {
+        for (i, v) in layer.iter().enumerate() {
+            assert!(
+                share.contains(pass, i as u32) || *v == Rgb::ZERO,
+                "{name}: pixel {i}, not covered, holds {v:?}"
+            );
+        }
+    }
+    compare_layers("vbl, shortened pass", w as usize, &cpu, &gpu);
+}
+
 /// [`bounded_fog`] (lumpy) with a mirror cube beside the fog sphere, so that every component
 /// has light: the caustics (photons off the mirror onto the walls, beams reflected into the fog)
 /// as well as the four gathers and direct light.
