@@ -11,6 +11,7 @@ use crate::{
     combine::{AutoReport, AutoSums},
     source::{Components, Finished, N},
 };
+use beamlight_scene::Rgb;
 use beamlight_trace::camera_paths::PixelShare;
 use rayon::prelude::*;
 use std::collections::VecDeque;
@@ -246,20 +247,16 @@ impl Schedule for EveryPass {
     }
 
     fn absorb(&mut self, step: &Step, finished: &Finished, _seconds: f64) {
-        if step.pixels.is_all() {
-            self.film.add_pass(&finished.out.beauty);
-            self.components
-                .par_iter_mut()
-                .zip(finished.out.components.par_iter())
-                .for_each(|(f, b)| f.add_pass(b));
-        } else {
-            let covered = |i: usize| step.pixels.contains(step.pass, i as u32);
-            self.film.add_partial_pass(&finished.out.beauty, covered);
-            self.components
-                .par_iter_mut()
-                .zip(finished.out.components.par_iter())
-                .for_each(|(f, b)| f.add_partial_pass(b, covered));
-        }
+        // A whole pass, or a shortened one over the pixels it covered.
+        let add = |film: &mut Film, pass: &[Rgb]| match step.pixels.is_all() {
+            true => film.add_pass(pass),
+            false => film.add_partial_pass(pass, |i| step.pixels.contains(step.pass, i as u32)),
+        };
+        add(&mut self.film, &finished.out.beauty);
+        self.components
+            .par_iter_mut()
+            .zip(finished.out.components.par_iter())
+            .for_each(|(f, b)| add(f, b));
         if let Some(times) = &finished.times {
             let kernels: f64 = times.kernels.iter().sum();
             self.pace.light_side += times.light_side.as_secs_f64();
