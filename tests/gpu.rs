@@ -8,7 +8,11 @@ use beamlight_gpu::{
     GpuBackend,
     gather::{GatherInputs, GatherKernel},
 };
-use beamlight_render::{Budget, Method, RenderOptions, many_lights::ManyLightSettings, render};
+use beamlight_render::{
+    Budget, Method, RenderOptions,
+    many_lights::{ManyLightSettings, VslDraw},
+    render,
+};
 use beamlight_scene::{Rgb, Scene, bsdf::Bsdf, scene::MediumInterface};
 use beamlight_testkit::gltf_writer::shapes;
 use beamlight_trace::{
@@ -807,6 +811,9 @@ fn a_shortened_vbl_pass_matches_across_backends() {
         caustic_paths: Some(1024),
         beam_paths: 256,
         media_light_samples: Some(6),
+        // The GPU's VSL kernels descend the tree; the CPU draws its VSLs the same way here, so
+        // that the pixels compare.
+        vsl_drawing: VslDraw::Descent,
         ..Default::default()
     };
     let settings = Method::Vbl.many_light_settings(&ts, &given);
@@ -911,6 +918,8 @@ fn compare_renders(method: Method, scene: Scene) {
             beam_paths: 64,
             // `Lmm` draws its own number on both backends (`--media-light-samples`).
             media_light_samples: Some(6),
+            // As the GPU's VSL kernels draw (the CPU's default draws them flat).
+            vsl_drawing: VslDraw::Descent,
             ..Default::default()
         },
         gpu,
@@ -1038,6 +1047,9 @@ fn binary_backends_agree_per_layer_and_the_gpu_runs_the_gathers() {
                 .args(["--method", method, "--backend", backend, "--passes", "2", "--seed", "5"])
                 .args(["--width", &w.to_string(), "--height", &h.to_string()])
                 .args([
+                    // As the GPU's VSL kernels draw (the CPU's default draws them flat).
+                    "--vsl-draw",
+                    "descent",
                     "--light-paths",
                     "16",
                     "--components",

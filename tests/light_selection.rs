@@ -97,12 +97,16 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
             .map(|run| {
                 let pair_seed = ps(1000 + run);
                 let mut total = DVec3::ZERO;
+                // `Lmm`'s flat draw shares masses by groups of records; the VSLs' is each
+                // record's own.
                 let groups = (Drawing::of(kind, drawing) == Drawing::Flat)
                     .then(|| tree.group_masses(records.len(), r, |i| receiver(&records[i])));
                 for (i, rec) in records.iter().enumerate() {
-                    let draw = groups
-                        .as_ref()
-                        .map_or(Draw::Descent, |g| Draw::Flat(&g[i / FLAT_GROUP]));
+                    let draw = match (&groups, drawing) {
+                        (Some(g), _) => Draw::Flat(&g[i / FLAT_GROUP]),
+                        (None, Drawing::Flat) => Draw::Own,
+                        (None, Drawing::Descent) => Draw::Descent,
+                    };
                     let xi = streams::selection_number(pair_seed, pass, kind, i as u32);
                     let descent = |slot| streams::selection_sampler(pair_seed, pass, kind, i as u32, slot);
                     let v = tree.estimate(&receiver(rec), r, k, xi, draw, descent, |slot, j| {
@@ -142,6 +146,19 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         |sp, j, s| vbl::vsl_to_surface(&ts, sp, &vpls[j], r2, &settings, s),
     );
     compare(
+        "Lss drawn flat",
+        sps,
+        vpls.len(),
+        &vsl_tree,
+        |sp| Receiver::at_point(&ts.scene, sp),
+        (GatherKind::VplToSurface, Drawing::Flat),
+        r,
+        k,
+        runs,
+        ps,
+        |sp, j, s| vbl::vsl_to_surface(&ts, sp, &vpls[j], r2, &settings, s),
+    );
+    compare(
         "Lsm",
         sps,
         vrls.len(),
@@ -161,6 +178,19 @@ fn selection_matches_all_pairs(name: &str, scene: Scene) {
         &vsl_tree,
         |seg| Receiver::along_segment(&ts.scene, seg),
         (GatherKind::VplToMedia, Drawing::Descent),
+        r,
+        k,
+        runs,
+        ps,
+        |seg, j, s| vbl::vsl_to_media(&ts, seg, &vpls[j], r2, &settings, s),
+    );
+    compare(
+        "Lms drawn flat",
+        segs,
+        vpls.len(),
+        &vsl_tree,
+        |seg| Receiver::along_segment(&ts.scene, seg),
+        (GatherKind::VplToMedia, Drawing::Flat),
         r,
         k,
         runs,

@@ -16,6 +16,16 @@ struct LightTreeNode {
     sigma_t: f32,
     // A segment leaf's Henyey–Greenstein g.
     g: f32,
+    // `light_tree::Emission`: the glossy lobes of its VSLs (all 0: none).
+    lobe_share: f32,
+    lobe_cos: f32,
+    lobe_axis: vec3<f32>,
+    lobe_exponent: f32,
+    // The cone of its VSLs' normals (0: segment lights).
+    normal: vec3<f32>,
+    normal_cos: f32,
+    lobe_peak: f32,
+    lobe_base: f32,
     _pad: array<u32, 2>,
 }
 
@@ -89,8 +99,8 @@ fn segment_nearest(rx: Receiver, y: vec3<f32>) -> vec3<f32> {
     return rx.a + rx.b * clamp(dot_glam(y - rx.a, rx.b), 0.0, rx.len);
 }
 
-// `Gloss::max_in_cone`.
-fn gloss_max_in_cone(rx: Receiver, axis: vec3<f32>, cos_a: f32, sin_a: f32, inside: bool) -> f32 {
+// `Gloss::in_cone`.
+fn gloss_in_cone(rx: Receiver, axis: vec3<f32>, cos_a: f32, sin_a: f32, inside: bool, sphere: bool) -> f32 {
     let peak = rx.specular * (rx.exponent + 2.0) * 0.5;
     if peak == 0.0 {
         return rx.diffuse;
@@ -105,7 +115,58 @@ fn gloss_max_in_cone(rx: Receiver, axis: vec3<f32>, cos_a: f32, sin_a: f32, insi
         }
         lobe = pow(max(c, 0.0), rx.exponent);
     }
-    return max(rx.diffuse + peak * lobe, 1e-4 * (rx.diffuse + peak));
+    var lobed = peak * lobe;
+    if sphere {
+        var one_minus_cos = 1.0;
+        if !inside {
+            one_minus_cos = sin_a * sin_a / (1.0 + cos_a);
+        }
+        lobed = min(lobed, peak / ((rx.exponent + 1.0) * max(one_minus_cos, 1e-12)));
+    }
+    return max(rx.diffuse + lobed, 1e-4 * (rx.diffuse + peak));
+}
+
+// `Emission::towards`.
+fn emission_towards(node: LightTreeNode, towards: vec3<f32>, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
+    if node.lobe_share == 0.0 {
+        return 1.0;
+    }
+    let sin_s = sqrt(max(1.0 - node.lobe_cos * node.lobe_cos, 0.0));
+    let cos_w = cos_a * node.lobe_cos - sin_a * sin_s;
+    let sin_w = sin_a * node.lobe_cos + cos_a * sin_s;
+    var lobe = 1.0;
+    if !(everywhere || sin_w < 0.0) {
+        let cos_t = clamp(dot_glam(node.lobe_axis, towards), -1.0, 1.0);
+        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+        var c = 1.0;
+        if cos_t < cos_w {
+            c = cos_t * cos_w + sin_t * sin_w;
+        }
+        lobe = pow(max(c, 0.0), node.lobe_exponent);
+    }
+    var one_minus_cos = 1.0;
+    if !everywhere {
+        one_minus_cos = sin_a * sin_a / (1.0 + cos_a);
+    }
+    let mean = node.lobe_peak / ((node.lobe_exponent + 1.0) * max(one_minus_cos, 1e-12));
+    let lobed = max(node.lobe_base + min(node.lobe_peak * lobe, mean), 1e-4 * (node.lobe_base + node.lobe_peak));
+    return 1.0 - node.lobe_share + node.lobe_share * lobed;
+}
+
+// `light_tree::facing`.
+fn facing(axis: vec3<f32>, cos_s: f32, towards: vec3<f32>, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
+    let sin_s = sqrt(max(1.0 - cos_s * cos_s, 0.0));
+    let cos_w = cos_a * cos_s - sin_a * sin_s;
+    let sin_w = sin_a * cos_s + cos_a * sin_s;
+    if everywhere || sin_w < 0.0 {
+        return 1.0;
+    }
+    let cos_t = clamp(dot_glam(axis, towards), -1.0, 1.0);
+    if cos_t >= cos_w {
+        return 1.0;
+    }
+    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    return max(cos_t * cos_w + sin_t * sin_w, 1e-3);
 }
 
 fn dot_glam(a: vec3<f32>, b: vec3<f32>) -> f32 {
@@ -237,7 +298,16 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
                 cos_bound = cos_t * cos_a + sin_t * sin_a;
             }
         }
-        let f = gloss_max_in_cone(rx, axis, cos_a, sin_a, inside);
+        let sphere = (node.child & LIGHT_LEAF) != 0u && !is_segment;
+        var f = gloss_in_cone(rx, axis, cos_a, sin_a, inside, sphere) * emission_towards(node, -axis, cos_a, sin_a, inside);
+        if any(node.normal != vec3<f32>(0.0)) {
+            if (node.child & LIGHT_LEAF) != 0u {
+                let h = dot_glam(node.normal, p - c);
+                f *= clamp(h / max(max(h, dc - r), 1e-12), 1e-3, 1.0);
+            } else {
+                f *= facing(node.normal, node.normal_cos, -axis, cos_a, sin_a, inside);
+            }
+        }
         if is_segment {
             let len = length_glam(b - a);
             let dir = (b - a) / len;

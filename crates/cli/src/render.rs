@@ -172,6 +172,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
             light_samples: args.light_samples.0,
             media_light_samples: args.media_light_samples,
             media_drawing: args.media_light_draw.0,
+            vsl_drawing: args.vsl_draw.0,
             direct_samples: args.direct_samples,
             caustic_paths: args.caustic_paths,
             beam_paths: args.beam_paths,

@@ -124,7 +124,27 @@ fn gather_structs_match() {
     check!(w, LightSegment, [origin, length, dir, medium, power, flags]);
     let w = parse("vbl_media.wgsl");
     use beamlight_trace::light_tree::LightTreeNode;
-    check!(w, LightTreeNode, [lo, weight, hi, child, sigma_t, g, _pad]);
+    check!(
+        w,
+        LightTreeNode,
+        [
+            lo,
+            weight,
+            hi,
+            child,
+            sigma_t,
+            g,
+            lobe_share,
+            lobe_cos,
+            lobe_axis,
+            lobe_exponent,
+            normal,
+            normal_cos,
+            lobe_peak,
+            lobe_base,
+            _pad
+        ]
+    );
     let w = parse("vsl_media.wgsl");
     check!(w, Plane, [point, _pad0, normal, _pad1]);
     check!(w, Walls, [planes, count, _pad0, _pad1, _pad2]);

@@ -79,6 +79,10 @@ pub struct ManyLightSettings {
     /// each one's pair integral ([`LightTree::flat_masses`]) unless a pass has very many, or
     /// always one way.
     pub media_drawing: MediaDraw,
+    /// How gather records draw their VSLs for `Lss` and `Lms` on the CPU (`--vsl-draw`):
+    /// flat, each record weighing every VSL of the pass by its own leaf importance, unless a
+    /// pass has very many, or always one way. The GPU's kernels descend the tree.
+    pub vsl_drawing: VslDraw,
     /// Camera samples per pixel per pass for direct light (`--direct-samples`): the gather's
     /// own and more, each with its own pixel jitter and one next-event estimate (light and
     /// BSDF/phase sampling, MIS) at each of its records. Direct light costs little next to
@@ -150,6 +154,55 @@ impl MediaDraw {
         }
     }
 }
+
+/// How gather records draw their VSLs for `Lss` (shading points) and `Lms` (camera media
+/// segments) on the CPU (`--vsl-draw`).
+///
+/// The descent's interior nodes are where its variance comes from: a node's box of VSLs on
+/// several walls, seen from a shading point beside some of them, is weighed as if all its
+/// lights were as far as its half-diagonal and as well turned as the best of them, so a VSL
+/// next to the receiver that carries most of its light is drawn with a probability of a few
+/// percent. `examples/lss_variance.rs` (one pass, 64 light paths, 300 shading points, every
+/// VSL against each, 96²): a draw's relative variance descending / flat by each leaf's own
+/// importance / ideal: Cornell box 3.96 / 0.51 / 0.06, `cars_small` 7.6 / 0.56 / 0.05, glossy
+/// fog box 11.8 / 0.75. Flat over the 64 nodes six levels down, then descending, still gave
+/// 2.1 / 2.3 / 3.6, and masses shared by 16 neighbouring records (as `Lmm`'s are) 17 / 6.7 /
+/// 99: a shading point's light comes from the VSLs beside it, which its neighbours on another
+/// wall do not share. So each record weighs every VSL itself: [`FLAT_MAX_VSLS`] bounds that.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum VslDraw {
+    /// Flat on the CPU while a pass has at most [`FLAT_MAX_VSLS`] VSLs, by the descent beyond
+    /// (and on the GPU).
+    #[default]
+    Auto,
+    /// Always down the tree ([`Drawing::Descent`]).
+    Descent,
+    /// Always flat on the CPU ([`Drawing::Flat`]); refused when the GPU gathers the VSLs.
+    Flat,
+}
+
+impl VslDraw {
+    /// How a pass with `vsls` VSLs draws them on the CPU.
+    pub fn drawing(self, vsls: usize) -> Drawing {
+        match self {
+            VslDraw::Auto if vsls <= FLAT_MAX_VSLS => Drawing::Flat,
+            VslDraw::Auto | VslDraw::Descent => Drawing::Descent,
+            VslDraw::Flat => Drawing::Flat,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            VslDraw::Auto => "auto",
+            VslDraw::Descent => "descent",
+            VslDraw::Flat => "flat",
+        }
+    }
+}
+
+/// The most VSLs a pass draws flat by default: a flat draw weighs every VSL for each record,
+/// so its cost grows with the pass's VSLs where the descent's grows with their logarithm.
+pub const FLAT_MAX_VSLS: usize = 1024;
 
 /// The most VBLs a pass draws `Lmm`'s beams from flat by default. A flat draw weighs every
 /// VBL once per group of [`beamlight_trace::light_tree::FLAT_GROUP`] camera segments and
@@ -233,6 +286,7 @@ impl Default for ManyLightSettings {
             light_samples: Some(DEFAULT_LIGHT_SAMPLES),
             media_light_samples: None,
             media_drawing: MediaDraw::Auto,
+            vsl_drawing: VslDraw::Auto,
             direct_samples: DEFAULT_DIRECT_SAMPLES,
             caustic_paths: None,
             beam_paths: DEFAULT_BEAM_PATHS,
@@ -510,6 +564,7 @@ pub fn start_pass(
             k: k.max(1),
             k_media: settings.media_light_samples.unwrap_or(k).max(1),
             media_drawing,
+            vsl_drawing: settings.vsl_drawing.drawing(lights.vpls.len()),
             r,
             pair_seed: streams::pair_seed(seed),
             pass,
@@ -534,6 +589,14 @@ pub fn start_pass(
         };
         gpu.is_some() && (on(KERNEL_COMPONENTS[i]) || credits.iter().any(|c| c.is_some_and(on)))
     });
+    // The GPU's VSL kernels descend the tree: a flat draw asked for cannot run there.
+    let vsl_on_gpu = run_kernels[GatherKernel::VslSurface as usize] || run_kernels[GatherKernel::VslMedia as usize];
+    if vsl_on_gpu && settings.vsl_drawing == VslDraw::Flat && selection.is_some() {
+        return Err(GpuError::Inputs(
+            "--vsl-draw flat runs on the CPU only (the GPU's VSL kernels descend the light tree);              use --vsl-draw auto or descent with a GPU, or --backend cpu"
+                .into(),
+        ));
+    }
     // A flat `Lmm` draw on the GPU draws by masses weighed here (see `GatherInputs`); the
     // CPU's gathers weigh theirs group by group.
     let clock = Instant::now();

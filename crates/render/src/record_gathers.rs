@@ -298,10 +298,18 @@ impl PassGathers<'_> {
                 LightSet::Points => &sel.vsls,
                 LightSet::Rays => &sel.vbls,
             };
-            let draw = flat.map_or(Draw::Descent, Draw::Flat);
-            (*sel, tree, rx, draw)
+            (*sel, tree, rx, flat)
         });
         let own = component as usize;
+        let drawn = drawn.map(|(sel, tree, rx, flat)| {
+            let draw = match (flat, set) {
+                (Some(masses), _) => Draw::Flat(masses),
+                // VSLs drawn flat: by the record's own masses.
+                (None, LightSet::Points) if sel.vsl_drawing == Drawing::Flat => Draw::Own,
+                (None, _) => Draw::Descent,
+            };
+            (sel, tree, rx, draw)
+        });
         let v = gather_lights(
             drawn,
             (&mut e.seconds[own], &mut e.discarded[own]),
@@ -368,6 +376,8 @@ pub(crate) struct Selection {
     pub(crate) k_media: u32,
     /// How camera media segments draw VBLs (`Lmm`).
     pub(crate) media_drawing: Drawing,
+    /// How records draw VSLs on the CPU (`Lss`, `Lms`): flat by each record's own masses.
+    pub(crate) vsl_drawing: Drawing,
     /// The pass's VBL/VSL radius.
     pub(crate) r: f32,
     pub(crate) pair_seed: u32,

@@ -5,7 +5,7 @@
 mod common;
 
 use beamlight_scene::rng::Sampler;
-use beamlight_trace::light_tree::{Gloss, LightTree, Receiver, TreeLight, flat_importance, importance};
+use beamlight_trace::light_tree::{Emission, Gloss, LightTree, Receiver, TreeLight, flat_importance, importance};
 use common::*;
 use glam::Vec3;
 
@@ -41,6 +41,8 @@ fn tree_of(lights: &[(Vec3, Vec3, f32)]) -> LightTree {
         weight,
         sigma_t: 0.5,
         g: 0.5,
+        emission: Emission::NONE,
+        normal: Vec3::ZERO,
         index: i as u32,
     }))
 }
@@ -316,6 +318,8 @@ fn segment_importance_tracks_the_pair_integral() {
             weight: 1.0,
             sigma_t,
             g: g_light,
+            emission: Emission::NONE,
+            normal: Vec3::ZERO,
             index: diagonal << beamlight_trace::light_tree::DIAGONAL_SHIFT,
         }));
         let rx = Receiver::Segment { o, d, len, g };

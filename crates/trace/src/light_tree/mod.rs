@@ -58,7 +58,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 
 mod importance;
-pub use importance::{Gloss, Receiver, flat_importance, importance};
+pub use importance::{Emission, Gloss, Receiver, cone_union, facing, flat_importance, importance};
 
 /// A node of a [`LightTree`] (`LightTreeNode` in `shaders/lib/light_tree.wgsl`).
 #[repr(C)]
@@ -79,6 +79,21 @@ pub struct LightTreeNode {
     /// A segment leaf's Henyey–Greenstein g (its light scatters off it by that phase
     /// function); 0 otherwise.
     pub g: f32,
+    /// The glossy lobes its lights send their light in ([`Emission`], as
+    /// [`LightTreeNode::emission`] reads them): the share of the weight in lights with lobes,
+    /// the cosine of the cone around `lobe_axis` that holds every lobe's axis, the smallest
+    /// exponent, the largest peak and base. All zero where no light has a lobe (every factor
+    /// is then 1). (The order keeps each vec3 16-byte aligned, as WGSL places them.)
+    pub lobe_share: f32,
+    pub lobe_cos: f32,
+    pub lobe_axis: [f32; 3],
+    pub lobe_exponent: f32,
+    /// The cone of its lights' normals (a VSL sends its light to the side of its normal,
+    /// with its cosine); zero for segment lights.
+    pub normal: [f32; 3],
+    pub normal_cos: f32,
+    pub lobe_peak: f32,
+    pub lobe_base: f32,
     pub _pad: [u32; 2],
 }
 
@@ -91,6 +106,19 @@ pub const DIAGONAL_SHIFT: u32 = 28;
 pub const LIGHT_MASK: u32 = (1 << DIAGONAL_SHIFT) - 1;
 
 impl LightTreeNode {
+    /// A node with these lobes and nothing else (for the builder to fill in).
+    fn with_emission(e: &Emission) -> LightTreeNode {
+        LightTreeNode {
+            lobe_share: e.share,
+            lobe_cos: e.cos_spread,
+            lobe_exponent: e.exponent,
+            lobe_axis: e.axis.into(),
+            lobe_peak: e.peak,
+            lobe_base: e.base,
+            ..Default::default()
+        }
+    }
+
     pub fn is_leaf(&self) -> bool {
         self.child & LEAF != 0
     }
@@ -98,6 +126,18 @@ impl LightTreeNode {
     /// A leaf's light index.
     pub fn light(&self) -> u32 {
         self.child & LIGHT_MASK
+    }
+
+    /// The lobes of the node's lights.
+    pub fn emission(&self) -> Emission {
+        Emission {
+            share: self.lobe_share,
+            axis: Vec3::from(self.lobe_axis),
+            cos_spread: self.lobe_cos,
+            base: self.lobe_base,
+            peak: self.lobe_peak,
+            exponent: self.lobe_exponent,
+        }
     }
 
     /// A leaf's segment (start, end) along its box's diagonal; a point light's box is a point.
@@ -153,6 +193,8 @@ impl Drawing {
 pub enum Draw<'a> {
     Descent,
     Flat(&'a [(u32, f32)]),
+    /// Flat by the record's own masses, weighed as it draws ([`LightTree::sample_flat_own`]).
+    Own,
 }
 
 /// Consecutive gather records that share one flat draw: the masses of each group of this
@@ -424,6 +466,10 @@ pub struct TreeLight {
     pub sigma_t: f32,
     /// The phase function's g of a segment light's medium (0 for points).
     pub g: f32,
+    /// The lobe a VSL on a glossy surface sends its light in ([`Emission::NONE`] otherwise).
+    pub emission: Emission,
+    /// A VSL's normal on the side it sends light to (zero for segment lights).
+    pub normal: Vec3,
     pub index: u32,
 }
 
@@ -442,6 +488,8 @@ impl LightTree {
                 weight: vsl_weight(scene, v),
                 sigma_t: 0.0,
                 g: 0.0,
+                emission: Emission::of_vsl(scene, v),
+                normal: Vec3::from(v.normal).try_normalize().unwrap_or(Vec3::ZERO),
                 index: i as u32,
             }
         }))
@@ -468,6 +516,8 @@ impl LightTree {
                 weight,
                 sigma_t,
                 g: scene.media[v.medium as usize].g,
+                emission: Emission::NONE,
+                normal: Vec3::ZERO,
                 index: i as u32 | diagonal << DIAGONAL_SHIFT,
             }
         }))
@@ -508,6 +558,14 @@ impl LightTree {
             clo = clo.min(c);
             chi = chi.max(c);
         }
+        let emission = Emission::bound(items.iter().map(|it| (it.emission, it.weight)));
+        // The normals' cone, when every light has a normal.
+        let normals = items
+            .iter()
+            .map(|it| (it.normal != Vec3::ZERO).then_some((it.normal, 1.0f32)))
+            .reduce(|a, b| Some(cone_union(a?, b?)))
+            .flatten();
+        let (normal, normal_cos) = normals.map_or(([0.0; 3], 0.0), |(a, c)| (a.into(), c));
         if items.len() == 1 {
             self.nodes[at] = LightTreeNode {
                 lo: lo.into(),
@@ -516,7 +574,9 @@ impl LightTree {
                 child: LEAF | items[0].index,
                 sigma_t: items[0].sigma_t,
                 g: items[0].g,
-                _pad: [0; 2],
+                normal,
+                normal_cos,
+                ..LightTreeNode::with_emission(&emission)
             };
             return;
         }
@@ -545,7 +605,9 @@ impl LightTree {
             // clipped, see `importance`).
             sigma_t: items.iter().map(|l| l.sigma_t).fold(0.0, f32::max),
             g: 0.0,
-            _pad: [0; 2],
+            normal,
+            normal_cos,
+            ..LightTreeNode::with_emission(&emission)
         };
         let (a, b) = items.split_at_mut(mid);
         self.fill(left, a);
@@ -633,6 +695,7 @@ impl LightTree {
         let sum: Rgb = match draw {
             Draw::Descent => self.sample_k(rx, r, k, xi, stream).map(&mut term).sum(),
             Draw::Flat(masses) => Self::sample_flat_k(masses, k, xi).into_iter().map(&mut term).sum(),
+            Draw::Own => self.sample_flat_own(rx, r, k, xi).into_iter().map(&mut term).sum(),
         };
         sum / k as f32
     }
@@ -670,6 +733,53 @@ impl LightTree {
             .zip(importances)
             .map(|(n, i)| (n.light(), flat_mass(i, n.weight, sum_i, sum_w)))
             .collect()
+    }
+
+    /// `k` lights for one record drawn flat by its own masses: what
+    /// [`LightTree::sample_flat_k`] draws from [`LightTree::flat_masses`]`(rx, r)`, weighed as
+    /// it goes, without allocating them (a VSL draw does this for every record).
+    pub fn sample_flat_own(&self, rx: &Receiver, r: f32, k: u32, xi: f32) -> Vec<Pick> {
+        thread_local! {
+            static IMPORTANCES: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        IMPORTANCES.with_borrow_mut(|importances| {
+            importances.clear();
+            let (mut sum_i, mut sum_w) = (0.0f32, 0.0f32);
+            for n in self.nodes.iter().filter(|n| n.is_leaf()) {
+                let i = flat_importance(n, rx, r);
+                importances.push(i);
+                sum_i += i;
+                sum_w += n.weight;
+            }
+            let mut picks = Vec::with_capacity(k as usize);
+            if !(sum_w > 0.0) {
+                return picks;
+            }
+            // As `sample_flat_k`: slot + ξ < running·K.
+            let (mut slot, mut running, mut last) = (0u32, 0.0f32, None);
+            for (n, &i) in self.nodes.iter().filter(|n| n.is_leaf()).zip(importances.iter()) {
+                let pmf = flat_mass(i, n.weight, sum_i, sum_w);
+                running += pmf;
+                while slot < k && slot as f32 + xi < running * k as f32 {
+                    picks.push(Pick {
+                        light: n.light(),
+                        pmf,
+                        slot,
+                    });
+                    slot += 1;
+                }
+                if pmf > 0.0 {
+                    last = Some((n.light(), pmf));
+                }
+            }
+            if let Some((light, pmf)) = last {
+                while slot < k {
+                    picks.push(Pick { light, pmf, slot });
+                    slot += 1;
+                }
+            }
+            picks
+        })
     }
 
     /// The masses every group of records 0..`n` draws by ([`FLAT_GROUP`]): for group g,
@@ -788,6 +898,41 @@ impl LightTree {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A record's own flat draw picks what the shared one picks from the same receiver's
+    /// masses, with the same probabilities: the two differ only in where the masses are
+    /// kept. Catches a running sum or a defensive share that differs, and a fallback to the
+    /// last leaf that is not the last with a mass.
+    #[test]
+    fn a_records_own_flat_draw_is_the_shared_one() {
+        let mut s = Sampler::new(9, 0, 0);
+        let lights: Vec<TreeLight> = (0..57)
+            .map(|i| {
+                let p = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 4.0 - 2.0;
+                TreeLight {
+                    lo: p,
+                    hi: p,
+                    weight: if i % 7 == 0 { 0.0 } else { 0.1 + s.next_1d() },
+                    sigma_t: 0.0,
+                    g: 0.0,
+                    emission: Emission::NONE,
+                    normal: Vec3::new(s.next_1d() - 0.5, 1.0, s.next_1d() - 0.5).normalize(),
+                    index: i,
+                }
+            })
+            .collect();
+        let tree = LightTree::build(lights.into_iter());
+        for case in 0..200 {
+            let rx = Receiver::Point {
+                p: Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 5.0 - 2.5,
+                n: Vec3::new(s.next_1d() - 0.5, s.next_1d() - 0.5, s.next_1d() - 0.5).normalize(),
+                gloss: Gloss::LAMBERT,
+            };
+            let (k, xi) = (1 + case % 5, s.next_1d());
+            let shared = LightTree::sample_flat_k(&tree.flat_masses(&rx, 0.2), k, xi);
+            assert_eq!(tree.sample_flat_own(&rx, 0.2, k, xi), shared, "case {case}");
+        }
+    }
 
     /// Boxes wholly below a shading point's horizon get nothing; just above, something.
     #[test]
