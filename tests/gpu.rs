@@ -1125,4 +1125,26 @@ fn binary_backends_agree_per_layer_and_the_gpu_runs_the_gathers() {
         err.contains("backend cpu (opening ") && err.contains("of the 0.5 s budget"),
         "{err}"
     );
+    // `--vsl-draw flat` has no GPU twin (the GPU's VSL kernels descend the tree): with the GPU
+    // gathering the VSLs it is refused, saying why, rather than drawn another way unasked.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_beamlight"))
+        .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .args([
+            "--method",
+            "vbl",
+            "--backend",
+            "gpu",
+            "--passes",
+            "1",
+            "--vsl-draw",
+            "flat",
+        ])
+        .args(["--width", &w.to_string(), "--height", &h.to_string()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(
+        !o.status.success() && err.contains("--vsl-draw flat runs on the CPU only"),
+        "{err}"
+    );
 }

@@ -593,7 +593,8 @@ pub fn start_pass(
     let vsl_on_gpu = run_kernels[GatherKernel::VslSurface as usize] || run_kernels[GatherKernel::VslMedia as usize];
     if vsl_on_gpu && settings.vsl_drawing == VslDraw::Flat && selection.is_some() {
         return Err(GpuError::Inputs(
-            "--vsl-draw flat runs on the CPU only (the GPU's VSL kernels descend the light tree);              use --vsl-draw auto or descent with a GPU, or --backend cpu"
+            "--vsl-draw flat runs on the CPU only (the GPU's VSL kernels descend the light tree): \
+             use --vsl-draw auto or descent with a GPU, or --backend cpu"
                 .into(),
         ));
     }

@@ -298,18 +298,15 @@ impl PassGathers<'_> {
                 LightSet::Points => &sel.vsls,
                 LightSet::Rays => &sel.vbls,
             };
-            (*sel, tree, rx, flat)
-        });
-        let own = component as usize;
-        let drawn = drawn.map(|(sel, tree, rx, flat)| {
             let draw = match (flat, set) {
                 (Some(masses), _) => Draw::Flat(masses),
                 // VSLs drawn flat: by the record's own masses.
                 (None, LightSet::Points) if sel.vsl_drawing == Drawing::Flat => Draw::Own,
                 (None, _) => Draw::Descent,
             };
-            (sel, tree, rx, draw)
+            (*sel, tree, rx, draw)
         });
+        let own = component as usize;
         let v = gather_lights(
             drawn,
             (&mut e.seconds[own], &mut e.discarded[own]),
