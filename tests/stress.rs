@@ -11,7 +11,11 @@ use beamlight_gpu::{
     GpuBackend,
     gather::{GatherInputs, GatherKernel, KERNELS},
 };
-use beamlight_render::{Budget, Method, RenderOptions, RenderResult, many_lights::ManyLightSettings, render};
+use beamlight_render::{
+    Budget, Method, RenderOptions, RenderResult,
+    many_lights::{ManyLightSettings, VslDraw},
+    render,
+};
 use beamlight_scene::{Rgb, Scene, bsdf::Bsdf};
 use beamlight_testkit::gltf_writer::shapes;
 use beamlight_trace::{
@@ -133,7 +137,20 @@ fn extreme_media_and_materials_stay_finite_for_every_method_and_backend() {
                     if method == Method::Pt {
                         continue;
                     }
-                    let gpu = render(&ts, &options(method, w, passes, Some(b.clone())), |_| true).unwrap();
+                    // The CPU's VSLs drawn as the GPU's kernels draw them (by the descent; the
+                    // CPU's default draws them flat), so that the totals compare.
+                    let descent = |gpu: Option<Arc<GpuBackend>>| RenderOptions {
+                        many_lights: ManyLightSettings {
+                            vsl_drawing: VslDraw::Descent,
+                            ..options(method, w, passes, None).many_lights
+                        },
+                        ..options(method, w, passes, gpu)
+                    };
+                    let cpu = match method {
+                        Method::Vbl => render(&ts, &descent(None), |_| true).unwrap(),
+                        _ => cpu,
+                    };
+                    let gpu = render(&ts, &descent(Some(b.clone())), |_| true).unwrap();
                     let what = format!("{what}, {} on the GPU", method.name());
                     assert_finite(&what, &gpu);
                     // f32 on both sides: the image's total within 1e-3 of the CPU's.
