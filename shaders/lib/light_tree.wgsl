@@ -131,17 +131,9 @@ fn emission_towards(node: LightTreeNode, towards: vec3<f32>, cos_a: f32, sin_a: 
     if node.lobe_share == 0.0 {
         return 1.0;
     }
-    let sin_s = sqrt(max(1.0 - node.lobe_cos * node.lobe_cos, 0.0));
-    let cos_w = cos_a * node.lobe_cos - sin_a * sin_s;
-    let sin_w = sin_a * node.lobe_cos + cos_a * sin_s;
+    let c = largest_cos(node.lobe_axis, node.lobe_cos, towards, cos_a, sin_a, everywhere);
     var lobe = 1.0;
-    if !(everywhere || sin_w < 0.0) {
-        let cos_t = clamp(dot_glam(node.lobe_axis, towards), -1.0, 1.0);
-        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-        var c = 1.0;
-        if cos_t < cos_w {
-            c = cos_t * cos_w + sin_t * sin_w;
-        }
+    if c < 1.0 {
         lobe = pow(max(c, 0.0), node.lobe_exponent);
     }
     var one_minus_cos = 1.0;
@@ -153,8 +145,8 @@ fn emission_towards(node: LightTreeNode, towards: vec3<f32>, cos_a: f32, sin_a: 
     return 1.0 - node.lobe_share + node.lobe_share * lobed;
 }
 
-// `light_tree::facing`.
-fn facing(axis: vec3<f32>, cos_s: f32, towards: vec3<f32>, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
+// `light_tree::largest_cos`.
+fn largest_cos(axis: vec3<f32>, cos_s: f32, towards: vec3<f32>, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
     let sin_s = sqrt(max(1.0 - cos_s * cos_s, 0.0));
     let cos_w = cos_a * cos_s - sin_a * sin_s;
     let sin_w = sin_a * cos_s + cos_a * sin_s;
@@ -166,7 +158,12 @@ fn facing(axis: vec3<f32>, cos_s: f32, towards: vec3<f32>, cos_a: f32, sin_a: f3
         return 1.0;
     }
     let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-    return max(cos_t * cos_w + sin_t * sin_w, 1e-3);
+    return cos_t * cos_w + sin_t * sin_w;
+}
+
+// `light_tree::facing`.
+fn facing(axis: vec3<f32>, cos_s: f32, towards: vec3<f32>, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
+    return max(largest_cos(axis, cos_s, towards, cos_a, sin_a, everywhere), 1e-3);
 }
 
 fn dot_glam(a: vec3<f32>, b: vec3<f32>) -> f32 {

@@ -226,22 +226,8 @@ impl Emission {
         if self.share == 0.0 {
             return 1.0;
         }
-        // The receiver's cone widened by the lobes' spread: half-angle α + σ.
-        let sin_s = (1.0 - self.cos_spread * self.cos_spread).max(0.0).sqrt();
-        let cos_w = cos_a * self.cos_spread - sin_a * sin_s;
-        let sin_w = sin_a * self.cos_spread + cos_a * sin_s;
-        let lobe = if everywhere || sin_w < 0.0 {
-            1.0
-        } else {
-            let cos_t = self.axis.dot(towards).clamp(-1.0, 1.0);
-            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-            let c = if cos_t >= cos_w {
-                1.0
-            } else {
-                cos_t * cos_w + sin_t * sin_w
-            };
-            c.max(0.0).powf(self.exponent)
-        };
+        let c = largest_cos(self.axis, self.cos_spread, towards, cos_a, sin_a, everywhere);
+        let lobe = if c < 1.0 { c.max(0.0).powf(self.exponent) } else { 1.0 };
         // 1 − cos α without cancellation (a hemisphere when the receiver is inside the cone).
         let one_minus_cos = if everywhere { 1.0 } else { sin_a * sin_a / (1.0 + cos_a) };
         let mean = self.peak / ((self.exponent + 1.0) * one_minus_cos.max(1e-12));
@@ -273,8 +259,9 @@ pub fn cone_union(a: (Vec3, f32), b: (Vec3, f32)) -> (Vec3, f32) {
 
 /// The largest cosine between a direction in the cone of unit `axis` and half-angle σ (cos σ =
 /// `cos_s`) and one in the cone of half-angle α (cos α, sin α) about `towards`, every
-/// direction when `everywhere`; floored at 10⁻³ (a sphere light's rim may still reach).
-pub fn facing(axis: Vec3, cos_s: f32, towards: Vec3, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
+/// direction when `everywhere`: the cone about `towards` widened to α + σ (the whole sphere
+/// beyond π), then the least angle from `axis` to it.
+fn largest_cos(axis: Vec3, cos_s: f32, towards: Vec3, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
     let sin_s = (1.0 - cos_s * cos_s).max(0.0).sqrt();
     let cos_w = cos_a * cos_s - sin_a * sin_s;
     let sin_w = sin_a * cos_s + cos_a * sin_s;
@@ -286,7 +273,13 @@ pub fn facing(axis: Vec3, cos_s: f32, towards: Vec3, cos_a: f32, sin_a: f32, eve
         return 1.0;
     }
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    (cos_t * cos_w + sin_t * sin_w).max(1e-3)
+    cos_t * cos_w + sin_t * sin_w
+}
+
+/// [`largest_cos`] for a node's normals' cone, floored at 10⁻³ (a sphere light's rim may
+/// still reach).
+pub fn facing(axis: Vec3, cos_s: f32, towards: Vec3, cos_a: f32, sin_a: f32, everywhere: bool) -> f32 {
+    largest_cos(axis, cos_s, towards, cos_a, sin_a, everywhere).max(1e-3)
 }
 
 impl Receiver {
