@@ -109,10 +109,11 @@ fn vbl_to_media(seg: MediaSegment, vrl: LightSegment, s: ptr<function, Sampler>)
     // The grid's density at y enters at each collection point (`collection_weight`).
     let sigma_y = mv.sigma_s;
     let sigma_x = mc.sigma_s * medium_density(seg.medium, x);
-    let t_vrl = transmittance(vrl.medium, ov, dv, u, s);
-    let t_cam = transmittance(seg.medium, oc, dc, t, s);
+    let rate = MEDIA_PAIR_TRACKING_RATE;
+    let t_vrl = transmittance_at_rate(vrl.medium, ov, dv, u, rate, s);
+    let t_cam = transmittance_at_rate(seg.medium, oc, dc, t, rate, s);
     let dist = length_glam(y - x);
-    let tr = connect(x, y, dist, seg.medium, s);
+    let tr = connect(x, y, dist, seg.medium, rate, s);
     if is_black(tr) {
         return vec3<f32>(0.0);
     }

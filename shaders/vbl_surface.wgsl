@@ -40,7 +40,7 @@ fn vbl_to_surface(sp: ShadingPoint, rx: Lobe, vrl: LightSegment, s: ptr<function
     let dist = length_glam(y - p);
     // The shadow ray leaves on the viewer's side: a centre behind the surface is occluded.
     let origin = spawn_from_triangle(sp.tri, p, sp.wo);
-    let tr = connect(origin, y, dist, sp.medium, s);
+    let tr = connect(origin, y, dist, sp.medium, 1.0, s);
     if is_black(tr) {
         return vec3<f32>(0.0);
     }

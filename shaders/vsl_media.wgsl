@@ -40,11 +40,12 @@ fn vsl_to_media(seg: MediaSegment, vpl: SurfaceVertex, f_vpl: Bsdf, walls: Walls
         return vec3<f32>(0.0);
     }
     let sigma_s = m.sigma_s * medium_density(seg.medium, x);
-    let t_cam = transmittance(seg.medium, o, d, t, s);
+    let rate = MEDIA_PAIR_TRACKING_RATE;
+    let t_cam = transmittance_at_rate(seg.medium, o, d, t, rate, s);
     let dist = length_glam(q - x);
     // The VSL centre just off its surface, on the side its light arrived from.
     let target_point = spawn_from_triangle(vpl.tri, q, vpl.wi);
-    let tr = connect(x, target_point, dist, seg.medium, s);
+    let tr = connect(x, target_point, dist, seg.medium, rate, s);
     if is_black(tr) {
         return vec3<f32>(0.0);
     }

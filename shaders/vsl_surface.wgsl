@@ -20,7 +20,7 @@ fn vsl_to_surface(sp: ShadingPoint, rx: Lobe, vpl: SurfaceVertex, f_vpl: Bsdf, w
     let dist = length_glam(vpl.pos - sp.pos);
     // The VSL centre just off its surface, on the side its light arrived from.
     let target_point = spawn_from_triangle(vpl.tri, vpl.pos, vpl.wi);
-    let tr = connect(origin, target_point, dist, sp.medium, s);
+    let tr = connect(origin, target_point, dist, sp.medium, 1.0, s);
     if is_black(tr) {
         return vec3<f32>(0.0);
     }

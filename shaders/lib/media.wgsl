@@ -216,6 +216,11 @@ const GROUP_RATIO: f32 = 4.0;
 // Transmittance of medium `mi` along o + t·d, t ∈ (0, tmax) (`media::transmittance`): closed
 // form when homogeneous, ratio tracking in a density grid.
 fn transmittance(mi: u32, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return transmittance_at_rate(mi, o, d, tmax, 1.0, s);
+}
+
+// `media::transmittance_at_rate`: ratio tracking stepping at `rate` times the majorant.
+fn transmittance_at_rate(mi: u32, o: vec3<f32>, d: vec3<f32>, tmax: f32, rate: f32, s: ptr<function, Sampler>) -> vec3<f32> {
     let m = media[mi];
     let sigma_t = m.sigma_s + m.sigma_a;
     if m.grid_res.x == 0u {
@@ -241,7 +246,7 @@ fn transmittance(mi: u32, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<function
                 left[c] = false;
             }
         }
-        tr = tr * ratio_tracking(m, o, d, tmax, sigma_t * mask, lead, mask, s);
+        tr = tr * ratio_tracking(m, o, d, tmax, sigma_t * mask, lead * rate, mask, s);
     }
     // Negative rounding cut to 0; a NaN stays NaN (for the record's discard count), which
     // WGSL's max does not promise.
@@ -250,10 +255,14 @@ fn transmittance(mi: u32, o: vec3<f32>, d: vec3<f32>, tmax: f32, s: ptr<function
 
 // `TraceScene::medium_transmittance`: NO_MEDIUM is vacuum.
 fn medium_transmittance(medium: u32, o: vec3<f32>, d: vec3<f32>, len: f32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return medium_transmittance_at_rate(medium, o, d, len, 1.0, s);
+}
+
+fn medium_transmittance_at_rate(medium: u32, o: vec3<f32>, d: vec3<f32>, len: f32, rate: f32, s: ptr<function, Sampler>) -> vec3<f32> {
     if medium == NO_MEDIUM {
         return vec3<f32>(1.0);
     }
-    return transmittance(medium, o, d, len, s);
+    return transmittance_at_rate(medium, o, d, len, rate, s);
 }
 
 // The medium beyond scene triangle `tri` for a ray along `dir` (`TraceScene::medium_beyond`,
@@ -273,6 +282,11 @@ fn medium_beyond(tri: u32, ng: vec3<f32>, dir: vec3<f32>, current: u32) -> u32 {
 // at finite distance). Zero behind an opaque surface; null interfaces are crossed and switch
 // the medium.
 fn shadow_transmittance(o_start: vec3<f32>, target_point: vec3<f32>, medium_start: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+    return shadow_transmittance_at_rate(o_start, target_point, medium_start, 1.0, s);
+}
+
+// `TraceScene::shadow_transmittance_at_rate`: ratio tracking at `rate` times the majorant.
+fn shadow_transmittance_at_rate(o_start: vec3<f32>, target_point: vec3<f32>, medium_start: u32, rate: f32, s: ptr<function, Sampler>) -> vec3<f32> {
     let v = target_point - o_start;
     // sqrt(dot) as glam's `length` computes it.
     let len = sqrt(dot(v, v));
@@ -290,16 +304,16 @@ fn shadow_transmittance(o_start: vec3<f32>, target_point: vec3<f32>, medium_star
             if occluded(o, d, remaining) {
                 return vec3<f32>(0.0);
             }
-            return tr * medium_transmittance(medium, o, d, remaining, s);
+            return tr * medium_transmittance_at_rate(medium, o, d, remaining, rate, s);
         }
         let h = closest_hit(o, d, remaining);
         if h.t < 0.0 {
-            return tr * medium_transmittance(medium, o, d, remaining, s);
+            return tr * medium_transmittance_at_rate(medium, o, d, remaining, rate, s);
         }
         if (triangle_info[h.tri].flags & TRI_NULL_INTERFACE) == 0u {
             return vec3<f32>(0.0);
         }
-        tr = tr * medium_transmittance(medium, o, d, h.t, s);
+        tr = tr * medium_transmittance_at_rate(medium, o, d, h.t, rate, s);
         if all(tr == vec3<f32>(0.0)) {
             return tr;
         }

@@ -560,11 +560,15 @@ fn surface_vertex_value(surface: Lobe, phase: Lobe, at: vec3<f32>, centre: vec3<
     return luminance_mean(lobe_eval(surface, w)) * lobe_eval(phase, w).x;
 }
 
-// A shadow ray from `origin` to `target_point` starting in `medium` (`vbl::connect`): 1 when
-// the receiver is at the VSL centre (`dist` = 0).
-fn connect(origin: vec3<f32>, target_point: vec3<f32>, dist: f32, medium: u32, s: ptr<function, Sampler>) -> vec3<f32> {
+// `vbl::MEDIA_PAIR_TRACKING_RATE`: ratio tracking's rate (times the majorant) for the
+// transmittances of a pair gathered into a camera media segment (`Lmm`, `Lms`).
+const MEDIA_PAIR_TRACKING_RATE: f32 = 4.0;
+
+// A shadow ray from `origin` to `target_point` starting in `medium`, ratio tracking at `rate`
+// times the majorant (`vbl::connect`): 1 when the receiver is at the VSL centre (`dist` = 0).
+fn connect(origin: vec3<f32>, target_point: vec3<f32>, dist: f32, medium: u32, rate: f32, s: ptr<function, Sampler>) -> vec3<f32> {
     if !(dist > 0.0) {
         return vec3<f32>(1.0);
     }
-    return shadow_transmittance(origin, target_point, medium, s);
+    return shadow_transmittance_at_rate(origin, target_point, medium, rate, s);
 }

@@ -130,8 +130,22 @@ impl TraceScene {
 
     /// Transmittance of `medium` along `o + t·d`, `t ∈ (0, len)`, ignoring surfaces.
     pub fn medium_transmittance(&self, medium: MediumId, o: Vec3, d: Vec3, len: f32, s: &mut Sampler) -> Rgb {
+        self.medium_transmittance_at_rate(medium, o, d, len, 1.0, s)
+    }
+
+    /// [`Self::medium_transmittance`] with ratio tracking at `rate` times the majorant
+    /// ([`media::transmittance_at_rate`]).
+    fn medium_transmittance_at_rate(
+        &self,
+        medium: MediumId,
+        o: Vec3,
+        d: Vec3,
+        len: f32,
+        rate: f32,
+        s: &mut Sampler,
+    ) -> Rgb {
         match medium {
-            Some(i) => media::transmittance(&self.scene.media[i as usize], o, d, len, s),
+            Some(i) => media::transmittance_at_rate(&self.scene.media[i as usize], o, d, len, rate, s),
             None => Rgb::ONE,
         }
     }
@@ -139,7 +153,20 @@ impl TraceScene {
     /// Transmittance along a shadow ray from `o` (already offset off its surface, if any) to
     /// the light sample `ls`, starting in `medium`. Zero when an opaque or refracting surface is
     /// in the way; invisible medium boundaries are crossed and switch the medium.
-    pub fn shadow_transmittance(&self, mut o: Vec3, ls: &LightSample, mut medium: MediumId, s: &mut Sampler) -> Rgb {
+    pub fn shadow_transmittance(&self, o: Vec3, ls: &LightSample, medium: MediumId, s: &mut Sampler) -> Rgb {
+        self.shadow_transmittance_at_rate(o, ls, medium, 1.0, s)
+    }
+
+    /// [`Self::shadow_transmittance`] with ratio tracking at `rate` times the majorant
+    /// ([`media::transmittance_at_rate`]).
+    pub fn shadow_transmittance_at_rate(
+        &self,
+        mut o: Vec3,
+        ls: &LightSample,
+        mut medium: MediumId,
+        rate: f32,
+        s: &mut Sampler,
+    ) -> Rgb {
         let (d, mut remaining) = if ls.dist.is_finite() {
             let v = ls.target - o;
             let len = v.length();
@@ -156,16 +183,16 @@ impl TraceScene {
                 if self.bvh.occluded(o, d, remaining) {
                     return Rgb::ZERO;
                 }
-                return tr * self.medium_transmittance(medium, o, d, remaining, s);
+                return tr * self.medium_transmittance_at_rate(medium, o, d, remaining, rate, s);
             }
             match self.intersect(o, d, remaining) {
-                None => return tr * self.medium_transmittance(medium, o, d, remaining, s),
+                None => return tr * self.medium_transmittance_at_rate(medium, o, d, remaining, rate, s),
                 Some((h, sh)) => {
                     let tri = &self.scene.triangles[sh.tri as usize];
                     if self.scene.materials[tri.material as usize].bsdf.is_some() {
                         return Rgb::ZERO;
                     }
-                    tr *= self.medium_transmittance(medium, o, d, h.t, s);
+                    tr *= self.medium_transmittance_at_rate(medium, o, d, h.t, rate, s);
                     if tr == Rgb::ZERO {
                         return tr;
                     }

@@ -240,11 +240,23 @@ fn exponential(sigma: f32, u: f32) -> f32 {
 /// ratio tracking (unbiased, with Russian roulette on small values) in density grids, one
 /// walk per group of channels with similar extinction ([`extinction_groups`]).
 pub fn transmittance(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sampler) -> Rgb {
-    transmittance_counted(m, o, d, tmax, s).0
+    transmittance_counted(m, o, d, tmax, 1.0, s).0
 }
 
-/// [`transmittance`] and the number of tentative collisions its walks visited (its cost).
-pub fn transmittance_counted(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sampler) -> (Rgb, u32) {
+/// [`transmittance`] with ratio tracking stepping at `rate` (≥ 1) times the majorant. The
+/// estimate, a product of 1 − σ/μ over tentative collisions of rate μ, has relative variance
+/// exp(∫σ²/μ) − 1: `rate` k costs k times the steps and divides the exponent by k, which
+/// where it is small equals averaging k walks and where it is large (a ray through a dense
+/// plume) does far better. Worth it where an estimate's other work dwarfs its walks (the
+/// many-light pairs, `vbl::MEDIA_PAIR_TRACKING_RATE`), not where the walks are most of it
+/// (a path tracer's shadow rays through smoke).
+pub fn transmittance_at_rate(m: &Medium, o: Vec3, d: Vec3, tmax: f32, rate: f32, s: &mut Sampler) -> Rgb {
+    transmittance_counted(m, o, d, tmax, rate, s).0
+}
+
+/// [`transmittance_at_rate`] and the number of tentative collisions its walks visited (its
+/// cost).
+pub fn transmittance_counted(m: &Medium, o: Vec3, d: Vec3, tmax: f32, rate: f32, s: &mut Sampler) -> (Rgb, u32) {
     let Some(grid) = &m.density else {
         return (homogeneous_transmittance(m.sigma_t(), tmax), 0);
     };
@@ -256,7 +268,7 @@ pub fn transmittance_counted(m: &Medium, o: Vec3, d: Vec3, tmax: f32, s: &mut Sa
         let sigma_g = sigma_t * mask;
         let rest = Rgb::ONE - mask;
         let mut tr_g = Rgb::ONE;
-        tentative_collisions(grid, sigma_max, o, d, tmax, s, |_, density, mu, s| {
+        tentative_collisions(grid, sigma_max * rate, o, d, tmax, s, |_, density, mu, s| {
             steps += 1;
             tr_g *= (Rgb::ONE - sigma_g * (density / mu)).map(null_fraction);
             if tr_g.is_nan() {
@@ -675,7 +687,7 @@ mod tests {
                 let mut s = Sampler::new(5, 0, i);
                 let o = Vec3::new(s.next_1d(), s.next_1d(), 0.0);
                 let d = (Vec3::new(s.next_1d(), s.next_1d(), 1.0) - o).normalize();
-                let (tr, k) = transmittance_counted(&m, o, d, 2.0, &mut s);
+                let (tr, k) = transmittance_counted(&m, o, d, 2.0, 1.0, &mut s);
                 assert!(tr.is_finite() && tr.min_element() >= 0.0);
                 total += k as u64;
             }
@@ -692,6 +704,46 @@ mod tests {
             assert!(
                 chromatic <= 2.0 * grey,
                 "σs {thin}: {chromatic} steps per ray against grey {grey}"
+            );
+        }
+    }
+
+    /// Ratio tracking at k times the majorant ([`transmittance_at_rate`]): in a grid of
+    /// constant density (majorant = density) with optical depth τ, the estimate's mean is
+    /// e^(−τ) and its relative variance exp(τ/k) − 1, the formula the rate is chosen by. τ = 0.5
+    /// keeps Russian roulette out of play (at k = 4 it needs eight collisions, probability
+    /// 10⁻³). The mean is checked within 5 standard errors, the relative variance within 5 of
+    /// its estimate's standard errors (about 1.5 % of it at 20 000 walks): a rate the walk
+    /// ignored would give 0.65 against 0.13 at k = 4.
+    #[test]
+    fn ratio_tracking_variance_falls_with_its_rate() {
+        let grid = DensityGrid::new(UVec3::splat(8), Vec3::ZERO, Vec3::ONE, vec![1.0; 512]);
+        let tau = 0.5f64;
+        let m = medium(Rgb::splat(tau as f32), Rgb::ZERO, Some(grid));
+        for rate in [1.0f32, 4.0] {
+            let n = 20_000u32;
+            let xs: Vec<f64> = (0..n)
+                .map(|i| {
+                    let mut s = Sampler::new(11, rate as u32, i);
+                    transmittance_at_rate(&m, Vec3::new(0.5, 0.5, 0.0), Vec3::Z, 1.0, rate, &mut s).x as f64
+                })
+                .collect();
+            let mean = xs.iter().sum::<f64>() / n as f64;
+            let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+            let expected = (-tau).exp();
+            let se = (var / n as f64).sqrt();
+            assert!(
+                (mean - expected).abs() < 5.0 * se,
+                "rate {rate}: mean {mean} vs {expected} ± {se}"
+            );
+            let rel = var / (expected * expected);
+            let want = (tau / rate as f64).exp() - 1.0;
+            // The variance estimate's standard error, from the fourth central moment.
+            let m4 = xs.iter().map(|x| (x - mean).powi(4)).sum::<f64>() / n as f64;
+            let se_rel = ((m4 - var * var) / n as f64).sqrt() / (expected * expected);
+            assert!(
+                (rel - want).abs() < 5.0 * se_rel,
+                "rate {rate}: relative variance {rel:.4} vs exp(τ/k) − 1 = {want:.4} ± {se_rel:.4}"
             );
         }
     }

@@ -216,13 +216,26 @@ fn vsl_target(ts: &TraceScene, vpl: &SurfaceVertex, w: Vec3, dist: f32) -> Light
     }
 }
 
+/// Ratio tracking's rate (times the majorant, [`media::transmittance_at_rate`]) for the
+/// transmittances of a pair gathered into a camera media segment (`Lmm`, `Lms`): along the
+/// camera segment, along the VBL, and between the two points. Such a pair's other work (two
+/// angular tables, a 16-direction cone integral: about 4 µs) dwarfs a walk through the smoke
+/// box's grid (about 0.15 µs), while the walks were half of a pair's variance there.
+/// Measured on the smoke box (`lmm_variance`, `SHARE=16`): a draw's relative variance 6.1 at
+/// rate 1, 4.6 at 2, 3.6 at 4, 3.4 at 8, a pair 4.2 → 4.4 → 4.6 → 5.7 µs; whole `vbl` renders
+/// (96², 16 s, two seeds) `Lmm` relMSE 1.4× and `Lms` 1.3× lower (docs/rendering.md, "Media").
+/// Rate 4 for every transmittance would cost the path tracer, whose shadow rays' walks are
+/// most of its work in smoke, 30 % of its samples (1072 → 735 spp in 16 s).
+pub const MEDIA_PAIR_TRACKING_RATE: f32 = 4.0;
+
 /// Transmittance × visibility from `origin` (already off its surface) to `target`, starting in
-/// `medium`; 1 when the points coincide (a receiver at the VSL centre).
-fn connect(ts: &TraceScene, origin: Vec3, target: LightSample, medium: Option<u32>, s: &mut Sampler) -> Rgb {
+/// `medium`, ratio tracking at `rate` times the majorant; 1 when the points coincide (a
+/// receiver at the VSL centre).
+fn connect(ts: &TraceScene, origin: Vec3, target: LightSample, medium: Option<u32>, rate: f32, s: &mut Sampler) -> Rgb {
     if !(target.dist > 0.0) {
         return Rgb::ONE;
     }
-    ts.shadow_transmittance(origin, &target, medium, s)
+    ts.shadow_transmittance_at_rate(origin, &target, medium, rate, s)
 }
 
 /// The gather direction where an HG lobe `hg.eval(-ω', -travel)` peaks (the light's travel
@@ -314,7 +327,7 @@ pub fn vbl_to_surface(
     let dist = (y - p).length();
     // The shadow ray leaves on the viewer's side: a centre behind the surface is occluded.
     let origin = ts.spawn_from_triangle(sp.tri, p, Vec3::from(sp.wo));
-    let tr = connect(ts, origin, medium_target(y, dist, cone.axis), sp.medium(), s);
+    let tr = connect(ts, origin, medium_target(y, dist, cone.axis), sp.medium(), 1.0, s);
     if tr == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -421,10 +434,11 @@ pub fn vbl_to_media(
     // The grid's density at y enters at each collection point ([`Collection`]).
     let sigma_y = mv.sigma_s;
     let sigma_x = mc.sigma_s * mc.density_at(x);
-    let t_vrl = media::transmittance(mv, ov, dv, u, s);
-    let t_cam = media::transmittance(mc, oc, dc, t, s);
+    let rate = MEDIA_PAIR_TRACKING_RATE;
+    let t_vrl = media::transmittance_at_rate(mv, ov, dv, u, rate, s);
+    let t_cam = media::transmittance_at_rate(mc, oc, dc, t, rate, s);
     let dist = (y - x).length();
-    let tr = connect(ts, x, medium_target(y, dist, cone.axis), Some(seg.medium), s);
+    let tr = connect(ts, x, medium_target(y, dist, cone.axis), Some(seg.medium), rate, s);
     if tr == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -506,9 +520,10 @@ pub fn vsl_to_media_within(
         return Rgb::ZERO;
     };
     let sigma_s = m.sigma_s * m.density_at(x);
-    let t_cam = media::transmittance(m, o, d, t, s);
+    let rate = MEDIA_PAIR_TRACKING_RATE;
+    let t_cam = media::transmittance_at_rate(m, o, d, t, rate, s);
     let dist = (q - x).length();
-    let tr = connect(ts, x, vsl_target(ts, vpl, cone.axis, dist), Some(seg.medium), s);
+    let tr = connect(ts, x, vsl_target(ts, vpl, cone.axis, dist), Some(seg.medium), rate, s);
     if tr == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -563,7 +578,7 @@ pub fn vsl_to_surface_within(
     let lobe = sharper(rx.lobe(), light.lobe());
     let origin = ts.spawn_from_triangle(sp.tri, p, Vec3::from(sp.wo));
     let dist = (q - p).length();
-    let tr = connect(ts, origin, vsl_target(ts, vpl, cone.axis, dist), sp.medium(), s);
+    let tr = connect(ts, origin, vsl_target(ts, vpl, cone.axis, dist), sp.medium(), 1.0, s);
     if tr == Rgb::ZERO {
         return Rgb::ZERO;
     }
