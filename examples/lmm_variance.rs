@@ -18,7 +18,11 @@
 //! (32, for the radius), RECORDS (200), PAIRS (64), SEED (1), REPEAT (1: passes of the
 //! importances' timing loop, for a profiler), SHARE (4: a flat draw whose masses are shared
 //! by that many consecutive records: camera records are traced in 4×4 tiles of pixels, so 16
-//! is a tile, the renderer's `light_tree::FLAT_GROUP`).
+//! is a tile, the renderer's `light_tree::FLAT_GROUP`), QUAD (0: a flat draw whose masses are
+//! the pair integral itself, by a QUAD × QUAD midpoint rule along both lines with their
+//! marched densities and transmittances, σs along the VBL taken within R as its leaf takes it,
+//! and the transmittance between them unless BETWEEN=0; what a better importance could gain
+//! at most, and the pairs where the flat draw loses most to it).
 //!
 //! `cargo run --release --example lmm_variance`
 use beamlight_render::radius::{default_radius, paths_squared_radius};
@@ -62,7 +66,10 @@ fn main() {
     );
     let (mut sel, mut pair, mut ideal, mut c2, mut uniform) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let mut evaluated = 0u64;
-    let (mut flat_sel, mut shared_sel) = (0.0f64, 0.0f64);
+    let (mut flat_sel, mut shared_sel, mut quad_sel) = (0.0f64, 0.0f64, 0.0f64);
+    let (quad, between): (usize, bool) = (env("QUAD", 0), env("BETWEEN", 1) != 0);
+    // Where the flat draw loses most to the quadrature's: (c² + v)(1/p − 1/p_quad), the pair.
+    let mut losses: Vec<(f64, String)> = Vec::new();
     let share: usize = env("SHARE", 4);
     // The worst terms: (their share of the sample's variance, description).
     let mut worst: Vec<(f64, String)> = Vec::new();
@@ -85,12 +92,34 @@ fn main() {
                 .collect()
         };
         let flat = masses(&flat_draw_receiver(&ts.scene, seg));
+        let quad_masses: Vec<f64> = if quad > 0 {
+            let imp: Vec<f64> = lights
+                .vrls
+                .iter()
+                .map(|v| pair_integral(&ts.scene, seg, v, r, quad, between))
+                .collect();
+            let wts: Vec<f64> = leaves.iter().map(|&n| tree.nodes[n].weight as f64).collect();
+            let (isum, wsum) = (imp.iter().sum::<f64>(), wts.iter().sum::<f64>());
+            imp.iter()
+                .zip(&wts)
+                .map(|(i, w)| {
+                    if isum > 0.0 {
+                        0.9 * i / isum + 0.1 * w / wsum
+                    } else {
+                        w / wsum
+                    }
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         // The same masses shared by a run of SHARE consecutive records (neighbouring pixels
         // of a 4×4 tile): every record of the run draws by its first record's.
         let first = k - k % share;
         let shared = masses(&flat_draw_receiver(&ts.scene, &segs[first]));
         let mut shared_k = 0.0f64;
         let mut flat_k = 0.0f64;
+        let mut quad_k = 0.0f64;
         if std::env::var("TRACE").is_ok_and(|t| t.split(',').any(|x| x == format!("{k}"))) {
             // The descent to each of the worst lights: importances of both children per level.
             let light: usize = env("LIGHT", 0);
@@ -140,6 +169,9 @@ fn main() {
             if flat[i] > 0.0 {
                 flat_k += (c * c + v) / flat[i];
             }
+            if quad > 0 && quad_masses[i] > 0.0 {
+                quad_k += (c * c + v) / quad_masses[i];
+            }
             if shared[i] > 0.0 {
                 shared_k += (c * c + v) / shared[i];
             }
@@ -178,9 +210,24 @@ fn main() {
                 ));
             }
         }
+        for &(i, c, v) in terms.iter().filter(|_| quad > 0) {
+            if flat[i] > 0.0 && quad_masses[i] > 0.0 {
+                losses.push((
+                    (c * c + v) * (1.0 / flat[i] - 1.0 / quad_masses[i]),
+                    format!(
+                        "seg {k} light {i}: c/C {:.3}, √v/C {:.3}, flat p {:.2e}, quadrature's p {:.2e}",
+                        c / c_sum,
+                        v.sqrt() / c_sum,
+                        flat[i],
+                        quad_masses[i]
+                    ),
+                ));
+            }
+        }
         sel += sel_k - c_sum * c_sum;
         flat_sel += flat_k - c_sum * c_sum;
         shared_sel += shared_k - c_sum * c_sum;
+        quad_sel += quad_k - c_sum * c_sum;
         pair += pair_k;
         ideal += sqrt_sum * sqrt_sum - c_sum * c_sum;
         uniform += lights.vrls.len() as f64 * sum_c2_plus_v - c_sum * c_sum;
@@ -190,6 +237,13 @@ fn main() {
     println!("largest terms (c² + v)/p, relative to Σ C²:");
     for (x, text) in worst.iter().take(env("WORST", 12)) {
         println!("  {:.3}  {text}", x / c2);
+    }
+    if quad > 0 {
+        losses.sort_by(|a, b| b.0.total_cmp(&a.0));
+        println!("where the flat draw loses most to the quadrature's, (c² + v)(1/p − 1/p_quad) / Σ C²:");
+        for (x, text) in losses.iter().take(env("WORST", 12)) {
+            println!("  {:.3}  {text}", x / c2);
+        }
     }
     // What the leaves' importance costs: every segment of the sample against every light.
     let timing = Instant::now();
@@ -224,6 +278,9 @@ fn main() {
         "  flat, the masses of the first of {share} consecutive records shared: {:.3}",
         shared_sel / c2
     );
+    if quad > 0 {
+        println!("  flat by the pair integral (QUAD = {quad}): {:.3}", quad_sel / c2);
+    }
     println!(
         "  ideal p ∝ √(c² + v): {:.3}; uniform p: {:.3}",
         ideal / c2,
@@ -233,6 +290,73 @@ fn main() {
         "a pair costs {:.2} µs (one thread, all pairs of the sample)",
         per_pair * 1e6
     );
+}
+
+/// The pair integral of a VBL and a camera segment by an n × n midpoint rule: light density
+/// σs(y) T(y) along the VBL (σs within `r` of y, as [`VblStretch`]'s march takes it), σs(x)
+/// T(x) along the camera segment, both HG phase functions at the pair's direction, the
+/// transmittance between them (when `between`), over the distance² floored at r².
+///
+/// [`VblStretch`]: beamlight_trace::light_tree::VblStretch
+fn pair_integral(
+    scene: &beamlight_scene::Scene,
+    seg: &beamlight_trace::camera_paths::MediaSegment,
+    v: &beamlight_trace::light_paths::LightSegment,
+    r: f32,
+    n: usize,
+    between: bool,
+) -> f64 {
+    use beamlight_scene::medium::Medium;
+    use glam::Vec3;
+    let (mv, mc) = (&scene.media[v.medium as usize], &scene.media[seg.medium as usize]);
+    let hg = |g: f32, c: f32| {
+        let q = 1.0 + g * g - 2.0 * g * c;
+        (1.0 - g * g) / (q * q.sqrt())
+    };
+    // Optical depth between two points: a march of steps 0.02 long (at most 64).
+    let depth = |m: &Medium, p: Vec3, q: Vec3| -> f32 {
+        let steps = (((q - p).length() / 0.02).ceil() as usize).clamp(1, 64);
+        let h = (q - p).length() / steps as f32;
+        let sum: f32 = (0..steps)
+            .map(|i| m.density_at(p + (q - p) * ((i as f32 + 0.5) / steps as f32)))
+            .sum();
+        sum * h * m.sigma_t().max_element()
+    };
+    // The points of a line and the light each scatters: σs (within `within` of it) × the
+    // line's transmittance from its start × the step.
+    let line = |m: &Medium, o: Vec3, d: Vec3, len: f32, within: f32| -> Vec<(Vec3, f32)> {
+        let h = len / n as f32;
+        let (sigma_s, sigma_t) = (m.sigma_s.max_element(), m.sigma_t().max_element());
+        let mut tau = 0.0;
+        (0..n)
+            .map(|i| {
+                let x = o + d * ((i as f32 + 0.5) * h);
+                let density = m.density_at(x);
+                let scattering = if within > 0.0 {
+                    m.density_within(x, within)
+                } else {
+                    density
+                };
+                let light = sigma_s * scattering * (-(tau + 0.5 * sigma_t * density * h)).exp() * h;
+                tau += sigma_t * density * h;
+                (x, light)
+            })
+            .collect()
+    };
+    let e = Vec3::from(v.dir);
+    let d = Vec3::from(seg.dir);
+    let ys = line(mv, Vec3::from(v.origin), e, v.length, r);
+    let xs = line(mc, Vec3::from(seg.origin), d, seg.length, 0.0);
+    let mut total = 0.0f64;
+    for &(y, ly) in ys.iter().filter(|p| p.1 > 0.0) {
+        for &(x, lx) in xs.iter().filter(|p| p.1 > 0.0) {
+            let w = (x - y).normalize_or_zero();
+            let t = if between { (-depth(mc, y, x)).exp() } else { 1.0 };
+            let f = hg(mv.g, e.dot(w)) * hg(mc.g, -w.dot(d));
+            total += (ly * lx * t * f / (x - y).length_squared().max(r * r)) as f64;
+        }
+    }
+    total * Vec3::from(v.power).max_element() as f64
 }
 
 /// The tree node holding light `i`.
