@@ -135,7 +135,10 @@ impl DensityGrid {
         let u = (p - self.lo) / (self.hi - self.lo) * resf - Vec3::splat(0.5);
         let max = resf - Vec3::ONE;
         let u = u.clamp(Vec3::ZERO, max);
-        let i0 = u.floor().as_uvec3();
+        // u ≥ 0 (NaN becomes 0 either way): the cast's truncation is the floor, without a
+        // libm `floorf` call per axis on CPUs the build cannot assume SSE4.1 on (5 % of a
+        // smoke box `Lmm` render).
+        let i0 = u.as_uvec3();
         let f = u - i0.as_vec3();
         let i1 = (i0 + UVec3::ONE).min(self.res - UVec3::ONE);
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
