@@ -18,7 +18,9 @@
 //! (32, for the radius), RECORDS (200), PAIRS (64), SEED (1), REPEAT (1: passes of the
 //! importances' timing loop, for a profiler), SHARE (4: a flat draw whose masses are shared
 //! by that many consecutive records: camera records are traced in 4×4 tiles of pixels, so 16
-//! is a tile, the renderer's `light_tree::FLAT_GROUP`), QUAD (0: a flat draw whose masses are
+//! is a tile, the renderer's `light_tree::FLAT_GROUP`; OFFSET: which record of the run, by
+//! default the renderer's `flat_group_representative`), MIX (a second record of the run whose
+//! masses are averaged in), QUAD (0: a flat draw whose masses are
 //! the pair integral itself, by a QUAD × QUAD midpoint rule along both lines with their
 //! marched densities and transmittances, σs along the VBL taken within R as its leaf takes it,
 //! and the transmittance between them unless BETWEEN=0; what a better importance could gain
@@ -67,6 +69,8 @@ fn main() {
     let (mut sel, mut pair, mut ideal, mut c2, mut uniform) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let mut evaluated = 0u64;
     let (mut flat_sel, mut shared_sel, mut quad_sel) = (0.0f64, 0.0f64, 0.0f64);
+    // The shared flat draw's pair-sampling part, Σ v/p.
+    let mut shared_pair = 0.0f64;
     let (quad, between): (usize, bool) = (env("QUAD", 0), env("BETWEEN", 1) != 0);
     // Where the flat draw loses most to the quadrature's: (c² + v)(1/p − 1/p_quad), the pair.
     let mut losses: Vec<(f64, String)> = Vec::new();
@@ -115,8 +119,20 @@ fn main() {
         };
         // The same masses shared by a run of SHARE consecutive records (neighbouring pixels
         // of a 4×4 tile): every record of the run draws by its first record's.
-        let first = k - k % share;
-        let shared = masses(&flat_draw_receiver(&ts.scene, &segs[first]));
+        // The run's record whose masses it shares: the renderer's choice unless OFFSET says.
+        let offset = env("OFFSET", beamlight_trace::light_tree::flat_group_representative(share));
+        let first = (k - k % share + offset).min(segs.len() - 1);
+        let shared = if let Some(second) = std::env::var("MIX").ok().and_then(|v| v.parse::<usize>().ok()) {
+            // The mean of two records' masses (a mixture: every light either would draw).
+            let other = (k - k % share + second).min(segs.len() - 1);
+            let (a, b) = (
+                masses(&flat_draw_receiver(&ts.scene, &segs[first])),
+                masses(&flat_draw_receiver(&ts.scene, &segs[other])),
+            );
+            a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect()
+        } else {
+            masses(&flat_draw_receiver(&ts.scene, &segs[first]))
+        };
         let mut shared_k = 0.0f64;
         let mut flat_k = 0.0f64;
         let mut quad_k = 0.0f64;
@@ -173,6 +189,7 @@ fn main() {
                 quad_k += (c * c + v) / quad_masses[i];
             }
             if shared[i] > 0.0 {
+                shared_pair += v / shared[i];
                 shared_k += (c * c + v) / shared[i];
             }
             if p[i] > 0.0 {
@@ -275,8 +292,9 @@ fn main() {
         flat_sel / c2
     );
     println!(
-        "  flat, the masses of the first of {share} consecutive records shared: {:.3}",
-        shared_sel / c2
+        "  flat, the masses of the first of {share} consecutive records shared: {:.3} (pair sampling {:.3} of it)",
+        shared_sel / c2,
+        shared_pair / c2
     );
     if quad > 0 {
         println!("  flat by the pair integral (QUAD = {quad}): {:.3}", quad_sel / c2);

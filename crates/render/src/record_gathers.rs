@@ -10,7 +10,7 @@ use beamlight_trace::{
     direct,
     gather::GatherInputs,
     light_paths::{LightSegment, SurfaceVertex},
-    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, flat_draw_receiver},
+    light_tree::{Draw, Drawing, FLAT_GROUP, LightTree, Receiver, flat_draw_receiver, flat_group_representative},
     streams::{self, GatherKind},
     vbl::{self, VblSettings, Walls},
     vpl, vrl,
@@ -246,8 +246,9 @@ impl PassGathers<'_> {
 
     /// The flat draw's masses ([`LightTree::flat_masses`]) that a group of records (`chunk`,
     /// [`FLAT_GROUP`] of them) shares for their ray-like lights, with the seconds they took:
-    /// those of the first record's receiver, when this kind of record draws flat and some
-    /// record of the group gathers them. `None` otherwise.
+    /// those of its representative record's receiver ([`flat_group_representative`]), when
+    /// this kind of record draws flat and some record of the group gathers them. `None`
+    /// otherwise.
     fn shared_flat_masses<R: Record>(
         &self,
         chunk: &[R],
@@ -265,7 +266,8 @@ impl PassGathers<'_> {
         }
         let mut seconds = 0.0;
         let masses = timed(&mut seconds, || {
-            sel.vbls.flat_masses(&chunk[0].flat_receiver(&ts.scene), sel.r)
+            let representative = &chunk[flat_group_representative(chunk.len())];
+            sel.vbls.flat_masses(&representative.flat_receiver(&ts.scene), sel.r)
         });
         Some((masses, seconds))
     }
