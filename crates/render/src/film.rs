@@ -150,6 +150,16 @@ impl Film {
     /// no NaN or Inf ever reaches the accumulator.
     pub fn add_pass(&mut self, pass: &[Rgb]) {
         assert_eq!(pass.len(), self.sum.len());
+        // A pass that is zero everywhere (a component absent from the scene, or one the pass
+        // did not estimate) is a sample of 0 in every pixel: adding it leaves the sums as they
+        // are, so only the count moves. Reading the pass is a fifth of the memory traffic of
+        // adding it to the sums (48 bytes a pixel read and written), and a pass of the path
+        // tracer is one sample per pixel: in the Cornell box, where five of the seven
+        // components are empty, `pt --components` took 6 % more CPU time than `pt`.
+        if pass.iter().all(|v| *v == Rgb::ZERO) {
+            self.samples += 1;
+            return;
+        }
         for ((s, s2), v) in self.sum.iter_mut().zip(self.sum_sq.iter_mut()).zip(pass) {
             if !v.is_finite() {
                 self.rejected += 1;
@@ -332,6 +342,24 @@ mod tests {
         let stored = |partial, counts| Film::new(2, 1).with_partial(partial, counts).is_some();
         assert!(stored(1, vec![1, 0]) && stored(0, vec![]));
         assert!(!stored(1, vec![2, 0]) && !stored(1, vec![1]) && !stored(0, vec![1, 0]));
+    }
+
+    /// A pass that is zero everywhere is a sample of 0 in every pixel (means and variances as
+    /// if it had been added), also as −0; a pass with a NaN in it is not such a pass (the NaN is
+    /// counted and dropped). Catches the shortcut leaving the count alone (pixel 0 would read
+    /// 2.0, not 4/3) or taking a NaN pass for an empty one.
+    #[test]
+    fn an_empty_pass_is_a_sample_of_zero() {
+        let mut f = Film::new(2, 1);
+        f.add_pass(&[Rgb::splat(1.0), Rgb::splat(2.0)]);
+        f.add_pass(&[Rgb::ZERO, Rgb::splat(-0.0)]);
+        f.add_pass(&[Rgb::splat(3.0), Rgb::ZERO]);
+        assert_eq!(f.samples, 3);
+        assert_eq!(f.image().pixels, vec![Rgb::splat(4.0 / 3.0), Rgb::splat(2.0 / 3.0)]);
+        // Pixel 0: samples 1, 0, 3: sample variance 7/3, variance of the mean 7/9.
+        assert!((f.entry(0, 0).1 - 7.0 / 9.0).abs() < 1e-12);
+        f.add_pass(&[Rgb::new(f32::NAN, 0.0, 0.0), Rgb::ZERO]);
+        assert_eq!((f.samples, f.rejected), (4, 1));
     }
 
     #[test]
