@@ -1,5 +1,6 @@
 //! BVH build time and ray throughput on a procedural scene of ≥ 1M triangles; path-tracer
-//! samples, light paths, and VRL/VPL evaluations per second on the bundled fog box. Run with
+//! samples, light paths, and VRL/VPL evaluations per second on the bundled fog box, and VBL/VSL
+//! evaluations there and in the smoke box (a density grid). Run with
 //! `cargo bench -p beamlight-trace`.
 use beamlight_scene::{Rgb, load::load_scene, rng::Sampler};
 use beamlight_trace::{
@@ -114,10 +115,18 @@ fn visibility_rays_4k_triangles(b: Bencher) {
 
 fn fog_box() -> &'static TraceScene {
     static SCENE: OnceLock<TraceScene> = OnceLock::new();
-    SCENE.get_or_init(|| {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/scenes/cornell_fog.toml");
-        TraceScene::new(load_scene(std::path::Path::new(path)).expect("bundled scene"))
-    })
+    SCENE.get_or_init(|| bundled("cornell_fog"))
+}
+
+/// The smoke box: a plume in a density grid, where every transmittance is a walk.
+fn smoke_box() -> &'static TraceScene {
+    static SCENE: OnceLock<TraceScene> = OnceLock::new();
+    SCENE.get_or_init(|| bundled("cornell_smoke"))
+}
+
+fn bundled(name: &str) -> TraceScene {
+    let path = format!("{}/../../assets/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    TraceScene::new(load_scene(std::path::Path::new(&path)).expect("bundled scene"))
 }
 
 /// One path-traced sample for every pixel of the 256×256 fog box, on one thread.
@@ -156,12 +165,19 @@ fn light_paths_fog_box(b: Bencher) {
 /// One pass's gather data and light set of the fog box at 64×64, for the evaluation benches.
 fn gather_fixture() -> &'static (GatherSet, LightSet) {
     static DATA: OnceLock<(GatherSet, LightSet)> = OnceLock::new();
-    DATA.get_or_init(|| {
-        let ts = fog_box();
-        let gather = trace_camera_paths(ts, &CameraPathSettings::default(), 64, 64, 0, 0);
-        let lights = trace_light_paths(ts, &LightTracerSettings::default(), 64, 0, 0);
-        (gather, lights)
-    })
+    DATA.get_or_init(|| one_pass(fog_box()))
+}
+
+/// The same for the smoke box.
+fn smoke_fixture() -> &'static (GatherSet, LightSet) {
+    static DATA: OnceLock<(GatherSet, LightSet)> = OnceLock::new();
+    DATA.get_or_init(|| one_pass(smoke_box()))
+}
+
+fn one_pass(ts: &TraceScene) -> (GatherSet, LightSet) {
+    let gather = trace_camera_paths(ts, &CameraPathSettings::default(), 64, 64, 0, 0);
+    let lights = trace_light_paths(ts, &LightTracerSettings::default(), 64, 0, 0);
+    (gather, lights)
 }
 
 /// Unclamped VRL evaluations (`Lsm` at shading points and `Lmm` along media segments, each
@@ -210,9 +226,7 @@ fn vpl_evaluations_fog_box(b: Bencher) {
 /// VBL/VSL evaluations per component on the same gather data (items: gather point × light
 /// pairs), one thread, with a mid-render radius (the 100th pass of R0 = 10 % of the diagonal,
 /// 64 paths per pass: R ≈ 0.087).
-fn vbl_bench(b: Bencher, component: &str) {
-    let ts = fog_box();
-    let (gather, lights) = gather_fixture();
+fn vbl_bench(b: Bencher, (ts, (gather, lights)): (&TraceScene, &(GatherSet, LightSet)), component: &str) {
     let settings = VblSettings::default();
     let r2 = 0.087f32 * 0.087;
     let (points, segments) = (&gather.shading_points, &gather.media_segments);
@@ -253,5 +267,13 @@ fn vbl_bench(b: Bencher, component: &str) {
 
 #[divan::bench(sample_count = 3, args = ["Lsm", "Lmm", "Lms", "Lss"])]
 fn vbl_evaluations_fog_box(b: Bencher, component: &str) {
-    vbl_bench(b, component);
+    vbl_bench(b, (fog_box(), gather_fixture()), component);
+}
+
+/// The same in the smoke box, whose pairs walk their transmittances through the grid (`Lmm`
+/// and `Lms` at 4× the majorant's rate, `vbl::MEDIA_PAIR_TRACKING_RATE`) and shape their
+/// angular PDFs by its density.
+#[divan::bench(sample_count = 3, args = ["Lsm", "Lmm", "Lms", "Lss"])]
+fn vbl_evaluations_smoke_box(b: Bencher, component: &str) {
+    vbl_bench(b, (smoke_box(), smoke_fixture()), component);
 }
