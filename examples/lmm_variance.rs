@@ -118,20 +118,20 @@ fn main() {
             Vec::new()
         };
         // The same masses shared by a run of SHARE consecutive records (neighbouring pixels
-        // of a 4×4 tile): every record of the run draws by its first record's.
-        // The run's record whose masses it shares: the renderer's choice unless OFFSET says.
+        // of a 4×4 tile): every record of the run draws by one record's, the renderer's
+        // choice unless OFFSET says.
         let offset = env("OFFSET", beamlight_trace::light_tree::flat_group_representative(share));
-        let first = (k - k % share + offset).min(segs.len() - 1);
+        let representative = (k - k % share + offset).min(segs.len() - 1);
         let shared = if let Some(second) = std::env::var("MIX").ok().and_then(|v| v.parse::<usize>().ok()) {
             // The mean of two records' masses (a mixture: every light either would draw).
             let other = (k - k % share + second).min(segs.len() - 1);
             let (a, b) = (
-                masses(&flat_draw_receiver(&ts.scene, &segs[first])),
+                masses(&flat_draw_receiver(&ts.scene, &segs[representative])),
                 masses(&flat_draw_receiver(&ts.scene, &segs[other])),
             );
             a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect()
         } else {
-            masses(&flat_draw_receiver(&ts.scene, &segs[first]))
+            masses(&flat_draw_receiver(&ts.scene, &segs[representative]))
         };
         let mut shared_k = 0.0f64;
         let mut flat_k = 0.0f64;
@@ -292,7 +292,7 @@ fn main() {
         flat_sel / c2
     );
     println!(
-        "  flat, the masses of the first of {share} consecutive records shared: {:.3} (pair sampling {:.3} of it)",
+        "  flat, the masses of one of {share} consecutive records shared: {:.3} (pair sampling {:.3} of it)",
         shared_sel / c2,
         shared_pair / c2
     );
