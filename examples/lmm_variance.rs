@@ -83,25 +83,9 @@ fn main() {
         let p = tree.pmfs(&rx, r, lights.vrls.len());
         // Flat selection by each leaf's own importance (no tree above it), 10 % by flux.
         let leaves: Vec<usize> = (0..lights.vrls.len()).map(|i| leaf_of(&tree, i)).collect();
-        let masses = |rx: &Receiver| -> Vec<f64> {
-            let imp: Vec<f64> = leaves
-                .iter()
-                .map(|&n| beamlight_trace::light_tree::flat_importance(&tree.nodes[n], rx, r) as f64)
-                .collect();
-            let wts: Vec<f64> = leaves.iter().map(|&n| tree.nodes[n].weight as f64).collect();
-            let (isum, wsum) = (imp.iter().sum::<f64>(), wts.iter().sum::<f64>());
-            imp.iter()
-                .zip(&wts)
-                .map(|(i, w)| 0.9 * i / isum + 0.1 * w / wsum)
-                .collect()
-        };
-        let flat = masses(&flat_draw_receiver(&ts.scene, seg));
-        let quad_masses: Vec<f64> = if quad > 0 {
-            let imp: Vec<f64> = lights
-                .vrls
-                .iter()
-                .map(|v| pair_integral(&ts.scene, seg, v, r, quad, between))
-                .collect();
+        // A flat draw's masses from the leaves' importances (by light): 90 % by importance,
+        // 10 % by weight, all by weight when no light has importance (`flat_mass`).
+        let mix = |imp: Vec<f64>| -> Vec<f64> {
             let wts: Vec<f64> = leaves.iter().map(|&n| tree.nodes[n].weight as f64).collect();
             let (isum, wsum) = (imp.iter().sum::<f64>(), wts.iter().sum::<f64>());
             imp.iter()
@@ -114,6 +98,20 @@ fn main() {
                     }
                 })
                 .collect()
+        };
+        let masses = |rx: &Receiver| -> Vec<f64> {
+            mix(leaves
+                .iter()
+                .map(|&n| beamlight_trace::light_tree::flat_importance(&tree.nodes[n], rx, r) as f64)
+                .collect())
+        };
+        let flat = masses(&flat_draw_receiver(&ts.scene, seg));
+        let quad_masses: Vec<f64> = if quad > 0 {
+            mix(lights
+                .vrls
+                .iter()
+                .map(|v| pair_integral(&ts.scene, seg, v, r, quad, between))
+                .collect())
         } else {
             Vec::new()
         };
