@@ -137,7 +137,10 @@ fn auto_is_deterministic_with_a_pass_budget() {
 /// A point lamp and a glass ball: paths from the lamp through the ball (the caustics, and the
 /// walls lit by the caustic on the floor) are beyond the path tracer (a delta light through a
 /// delta surface), so `auto` takes every component but `direct` from `vbl` alone, and not the
-/// path tracer's estimate that lacks that light. Fails if a `pt` share leaks into them.
+/// path tracer's estimate that lacks that light; and, the seed shared, those components are
+/// `vbl`'s own image with that seed (common random numbers). Fails if a `pt` share leaks into
+/// them, or if `auto`'s `vbl` passes draw from another stream than `vbl` alone (made to fail
+/// so with `vbl` alone on the unsalted seed).
 #[test]
 fn auto_takes_what_the_path_tracer_cannot_reach_from_vbl() {
     let dir = tempfile::tempdir().unwrap();
@@ -151,10 +154,9 @@ fn auto_takes_what_the_path_tracer_cannot_reach_from_vbl() {
     assert!(Component::ALL[1..].iter().all(|&c| only[c as usize]));
     let result = render(&ts, &options(8, 8, 4, 1), |_| true).unwrap();
     let report = result.auto.as_ref().unwrap();
-    // `vbl` alone, with the seed `auto` gives its passes.
+    // `vbl` alone with the same seed: `auto`'s passes are its passes.
     let mut vbl = options(8, 8, 4, 1);
     vbl.method = Method::Vbl;
-    vbl.seed = beamlight_render::auto::vbl_seed(1);
     let alone = render(&ts, &vbl, |_| true).unwrap();
     for c in &Component::ALL[1..] {
         assert_eq!(report.vbl_weight[*c as usize], 1.0, "{}", c.name());

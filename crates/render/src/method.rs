@@ -61,9 +61,9 @@ impl Method {
     }
 
     /// The pass sources a render with this method draws from: one for every method but
-    /// `auto`, whose are the path tracer (its components apart), `vbl` with a seed of its own
-    /// and the same `vbl` on a small image (its probe of a pass's cost), in the order of
-    /// [`auto::PT`], [`auto::VBL`] and [`auto::PROBE`].
+    /// `auto`, whose are the path tracer (its components apart), `vbl` (with the seed `vbl`
+    /// alone uses, [`auto::many_light_seed`]) and the same `vbl` on a small image (its probe
+    /// of a pass's cost), in the order of [`auto::PT`], [`auto::VBL`] and [`auto::PROBE`].
     pub fn sources<'a>(self, inputs: SourceInputs<'a>) -> Vec<Box<dyn PassSource + 'a>> {
         let path_tracer = |split| -> Box<dyn PassSource + 'a> {
             Box::new(PathTracer {
@@ -88,9 +88,11 @@ impl Method {
         let size = (inputs.width, inputs.height);
         match self {
             Method::Pt => vec![path_tracer(inputs.split)],
-            Method::Vrl | Method::VrlClamped | Method::Vbl => vec![many_lights(self, inputs.seed, size)],
+            Method::Vrl | Method::VrlClamped | Method::Vbl => {
+                vec![many_lights(self, auto::many_light_seed(inputs.seed), size)]
+            }
             Method::Auto => {
-                let seed = auto::vbl_seed(inputs.seed);
+                let seed = auto::many_light_seed(inputs.seed);
                 vec![
                     path_tracer(true),
                     many_lights(Method::Vbl, seed, size),
