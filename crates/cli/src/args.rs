@@ -187,6 +187,8 @@ pub(crate) struct RenderArgs {
     /// Wall-clock budget in seconds, start-up included.
     #[arg(long)]
     pub(crate) time: Option<f64>,
+    /// Random seed: the same seed and settings give the same image. `auto` draws its
+    /// path-traced samples and its `vbl` passes from the streams `pt` and `vbl` use with it.
     #[arg(long, default_value_t = 0)]
     pub(crate) seed: u32,
     #[arg(long, value_enum, default_value = "auto")]
