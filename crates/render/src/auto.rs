@@ -80,16 +80,6 @@ const EXPLORE_CAP: f64 = 0.4;
 const PROMISING: f64 = 4.0;
 /// Path-traced samples per pixel per round with a pass budget.
 pub const PT_SPP_PER_ROUND: u32 = 16;
-/// The seed of the many-light methods' passes (`vbl`, `vrl`, `vrl-clamped`) in a render with
-/// `seed`; the path tracer's is `seed` itself. Derived with a salt, so that inside `auto` the
-/// two estimators' random streams are independent (their errors must not correlate), and used
-/// by the methods alone as well, so that `auto`'s passes are the very passes `pt` and `vbl`
-/// render with the same seed: where `auto` gives a component to one estimator, its image is
-/// that estimator's after fewer passes (common random numbers: comparisons at equal seed
-/// measure `auto`'s overhead, not the two renders' independent noise).
-pub fn many_light_seed(seed: u32) -> u32 {
-    beamlight_scene::rng::pcg_hash(seed ^ 0x6a09_e667)
-}
 
 /// What the schedule runs next.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -196,7 +186,7 @@ fn split_pass(times: &PassTimes, wall: f64) -> (f64, [f64; N]) {
 }
 
 /// `--method auto` as a schedule over two sources, the path tracer ([`PT`]) and `vbl`
-/// ([`VBL`], with the many-light methods' seed, [`many_light_seed`]).
+/// ([`VBL`], with the seed of `vbl` alone, [`many_lights::stream_seed`]).
 pub struct Auto {
     est: AutoSums,
     costs: Costs,

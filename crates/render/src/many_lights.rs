@@ -43,6 +43,17 @@ pub enum VirtualLights {
     Beams,
 }
 
+/// The seed of the many-light methods' random stream (`vbl`, `vrl`, `vrl-clamped`, and
+/// `auto`'s `vbl`) in a render with `seed`; the path tracer's is `seed` itself. Salted, so
+/// that inside `auto` the two estimators' streams are independent (their errors must not
+/// correlate), and the same alone and inside `auto`, so that `auto`'s passes are the very
+/// passes `pt` and `vbl` render with the same seed: where `auto` gives a component to one
+/// estimator, its image is that estimator's after fewer passes (common random numbers:
+/// comparisons at equal seed measure `auto`'s overhead, not two renders' independent noise).
+pub fn stream_seed(seed: u32) -> u32 {
+    beamlight_scene::rng::pcg_hash(seed ^ 0x6a09_e667)
+}
+
 /// Settings of the many-light methods.
 #[derive(Clone, Copy, Debug)]
 pub struct ManyLightSettings {

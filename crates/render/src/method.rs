@@ -62,7 +62,7 @@ impl Method {
 
     /// The pass sources a render with this method draws from: one for every method but
     /// `auto`, whose are the path tracer (its components apart), `vbl` (with the seed `vbl`
-    /// alone uses, [`auto::many_light_seed`]) and the same `vbl` on a small image (its probe
+    /// alone uses, [`many_lights::stream_seed`]) and the same `vbl` on a small image (its probe
     /// of a pass's cost), in the order of [`auto::PT`], [`auto::VBL`] and [`auto::PROBE`].
     pub fn sources<'a>(self, inputs: SourceInputs<'a>) -> Vec<Box<dyn PassSource + 'a>> {
         let path_tracer = |split| -> Box<dyn PassSource + 'a> {
@@ -89,10 +89,10 @@ impl Method {
         match self {
             Method::Pt => vec![path_tracer(inputs.split)],
             Method::Vrl | Method::VrlClamped | Method::Vbl => {
-                vec![many_lights(self, auto::many_light_seed(inputs.seed), size)]
+                vec![many_lights(self, many_lights::stream_seed(inputs.seed), size)]
             }
             Method::Auto => {
-                let seed = auto::many_light_seed(inputs.seed);
+                let seed = many_lights::stream_seed(inputs.seed);
                 vec![
                     path_tracer(true),
                     many_lights(Method::Vbl, seed, size),
