@@ -75,30 +75,26 @@ impl Method {
                 split,
             })
         };
-        let many_lights = |method: Method, seed, (width, height): (u32, u32)| -> Box<dyn PassSource + 'a> {
+        // Every many-light source draws from the same stream, alone or inside `auto`.
+        let many_light_source = |method: Method, (width, height): (u32, u32)| -> Box<dyn PassSource + 'a> {
             Box::new(ManyLights {
                 ts: inputs.ts,
                 settings: method.many_light_settings(inputs.ts, inputs.many_lights),
                 width,
                 height,
-                seed,
+                seed: many_lights::stream_seed(inputs.seed),
                 gpu: inputs.gpu,
             })
         };
         let size = (inputs.width, inputs.height);
         match self {
             Method::Pt => vec![path_tracer(inputs.split)],
-            Method::Vrl | Method::VrlClamped | Method::Vbl => {
-                vec![many_lights(self, many_lights::stream_seed(inputs.seed), size)]
-            }
-            Method::Auto => {
-                let seed = many_lights::stream_seed(inputs.seed);
-                vec![
-                    path_tracer(true),
-                    many_lights(Method::Vbl, seed, size),
-                    many_lights(Method::Vbl, seed, auto::probe_size(size)),
-                ]
-            }
+            Method::Vrl | Method::VrlClamped | Method::Vbl => vec![many_light_source(self, size)],
+            Method::Auto => vec![
+                path_tracer(true),
+                many_light_source(Method::Vbl, size),
+                many_light_source(Method::Vbl, auto::probe_size(size)),
+            ],
         }
     }
 
