@@ -199,8 +199,8 @@ pub struct Auto {
     /// noisy a `vbl` pass of each component is), and the probe passes planned.
     probe: Vec<Film>,
     probes_planned: u64,
-    /// The probe's verdict, once in.
-    probed: Option<Probed>,
+    /// The probe's verdict, once in ([`Auto::review`]).
+    verdict: Option<Verdict>,
     /// Units planned, and units of the checkpoint continued (the combined films count both).
     planned: u64,
     units: u64,
@@ -268,7 +268,7 @@ impl Auto {
                 (0..N).map(|_| Film::new(pw, ph)).collect()
             },
             probes_planned: 0,
-            probed: None,
+            verdict: None,
             planned: 0,
             units: 0,
             units_before: resume.map_or(0, |(_, units)| units),
@@ -312,6 +312,39 @@ impl Auto {
     }
 }
 
+impl Auto {
+    /// Takes the probe's verdict once its passes are in, and again each time the path
+    /// tracer's samples of every component it serves have doubled since. A promise rests on
+    /// the path tracer's variance per sample, which is heavy-tailed where rare paths find the
+    /// light (a small bulb), so that the first few samples understate it: in buddha at 96² and
+    /// 4 s, `Lms`'s promise was 5–6 on the six samples of the first verdict and 20–40 on twenty
+    /// to forty; the render that saw it below [`PROMISING`] never measured `vbl` on `Lms` and
+    /// ended at 1.9× `vbl`'s error. A later verdict measures `vbl` on the components not yet
+    /// measured that it finds [`PROMISING`] (not on every one above 1, which would spend
+    /// another share of the budget on promises still as flattered as the first).
+    fn review(&mut self, limit: f64, left: f64) {
+        let serves = self.est.pt_serves();
+        let samples = (0..N)
+            .filter(|&k| serves[k])
+            .map(|k| self.est.pt[k].samples)
+            .min()
+            .unwrap_or(0);
+        if self.verdict.as_ref().is_some_and(|v| samples < 2 * v.pt_samples.max(1)) {
+            return;
+        }
+        let Some(probed) = Probed::of(&self.est, &self.probe, &self.costs) else {
+            return;
+        };
+        let unmeasured: [bool; N] =
+            std::array::from_fn(|k| self.est.needed[k] && self.est.vbl[k].samples < MIN_VBL_PASSES);
+        let admit = if self.verdict.is_none() { 1.0 } else { PROMISING };
+        self.verdict = Some(Verdict {
+            measure: measured_by(&probed, &unmeasured, admit, limit, left),
+            pt_samples: samples,
+        });
+    }
+}
+
 impl Schedule for Auto {
     fn plan(&mut self, remaining: Remaining, pending: Option<&Step>) -> Option<Vec<Step>> {
         let plan = match remaining {
@@ -327,14 +360,12 @@ impl Schedule for Auto {
                         };
                         choice_seconds(choice, &self.costs)
                     });
-                let limit = Duration::from_secs_f64(limit);
                 let first = self.planned == 0;
-                if self.probed.is_none() {
-                    self.probed = Probed::of(&self.est, &self.probe, &self.costs);
-                }
+                self.review(limit, left);
+                let limit = Duration::from_secs_f64(limit);
                 match next_choice(
                     &self.est,
-                    self.probed.as_ref(),
+                    self.verdict.as_ref(),
                     &self.costs,
                     &self.combined,
                     limit,
@@ -478,6 +509,14 @@ fn round_choices(est: &AutoSums, r: u64) -> Vec<Choice> {
     steps
 }
 
+/// A verdict of the probe ([`Auto::review`]): the components it has `vbl` measured on, and the
+/// fewest path-traced samples of a component it was taken on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Verdict {
+    measure: [bool; N],
+    pt_samples: u64,
+}
+
 /// Whether and where `vbl` is measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Exploration {
@@ -564,37 +603,40 @@ impl Probed {
     }
 }
 
-/// Which components `vbl` is measured on, given the probe's verdict (`None`: not in yet).
-/// Every needed one when a component has no other estimator (`vbl_only_needed`): the probe is
-/// not needed then. Otherwise none whose promise is below 1, and of the others, by promise,
-/// as many as fit [`MIN_VBL_PASSES`] passes in [`EXPLORE_SHARE`] of the budget, or in
-/// [`EXPLORE_CAP`] of it for those whose promise reaches [`PROMISING`]: their passes are
-/// likely the better use of the time, and cost little if not. A whole pass is often too dear
-/// for a short budget where one component's passes are not (the glossy fog box at 96², 16 s:
-/// a pass 0.44 s, four would take 1.75 of the 1.6 s; its `Lmm`, where `vbl` is far ahead,
-/// costs a quarter of that).
-fn exploration(probed: Option<&Probed>, needed: &[bool; N], vbl_only_needed: bool, limit: Duration) -> Exploration {
+/// Whether `vbl` is measured, and on which components: every needed one when a component has
+/// no other estimator (`vbl_only_needed`; the probe is not needed then), none before the
+/// probe's verdict (the probe runs first), else those the verdict chose ([`measured_by`]).
+fn exploration(verdict: Option<&Verdict>, needed: &[bool; N], vbl_only_needed: bool) -> Exploration {
     if vbl_only_needed {
         return Exploration::Measure(*needed);
     }
-    let Some(p) = probed else {
-        return Exploration::Probe;
-    };
-    let mut order: Vec<usize> = (0..N).filter(|&k| needed[k] && p.promise[k] >= 1.0).collect();
+    match verdict {
+        None => Exploration::Probe,
+        Some(v) if v.measure.iter().any(|&m| m) => Exploration::Measure(v.measure),
+        Some(_) => Exploration::Skip,
+    }
+}
+
+/// Which of the `candidates` `vbl` is measured on, given the probe's verdict: none whose
+/// promise is below `admit` (1 at the first verdict: below it even the flattered `vbl`
+/// loses), and of the others, by promise, as many as fit [`MIN_VBL_PASSES`] passes in
+/// [`EXPLORE_SHARE`] of the budget `limit`, or in [`EXPLORE_CAP`] of it for those whose
+/// promise reaches [`PROMISING`]: their passes are likely the better use of the time, and cost
+/// little if not; and in any case in the time `left`. A whole pass is often too dear for a
+/// short budget where one component's passes are not (the glossy fog box at 96², 16 s: a pass
+/// 0.44 s, four would take 1.75 of the 1.6 s; its `Lmm`, where `vbl` is far ahead, costs a
+/// quarter of that).
+fn measured_by(p: &Probed, candidates: &[bool; N], admit: f64, limit: f64, left: f64) -> [bool; N] {
+    let mut order: Vec<usize> = (0..N).filter(|&k| candidates[k] && p.promise[k] >= admit).collect();
     order.sort_by(|&a, &b| p.promise[b].total_cmp(&p.promise[a]));
-    let mask = fill(&order, p.shared, &p.cost, |k| {
+    fill(&order, p.shared, &p.cost, |k| {
         let share = if p.promise[k] >= PROMISING {
             EXPLORE_CAP
         } else {
             EXPLORE_SHARE
         };
-        share * limit.as_secs_f64() / MIN_VBL_PASSES as f64
-    });
-    if mask.iter().any(|&m| m) {
-        Exploration::Measure(mask)
-    } else {
-        Exploration::Skip
-    }
+        (share * limit).min(left) / MIN_VBL_PASSES as f64
+    })
 }
 
 /// Predicted seconds of a step.
@@ -617,7 +659,7 @@ fn choice_seconds(choice: Choice, costs: &Costs) -> f64 {
 /// the components worth their own seconds.
 fn next_choice(
     est: &AutoSums,
-    probed: Option<&Probed>,
+    verdict: Option<&Verdict>,
     costs: &Costs,
     combined: &Combined,
     limit: Duration,
@@ -654,14 +696,15 @@ fn next_choice(
     // measure `vbl` does not pay for a pass it could not use (fewer than MIN_VBL_PASSES get
     // no weight).
     let vbl_only_needed = (0..N).any(|k| needed[k] && vbl_only[k]);
-    let explore = match exploration(probed, needed, vbl_only_needed, limit) {
+    let explore = match exploration(verdict, needed, vbl_only_needed) {
         Exploration::Probe if any_vbl => return Some(Choice::Probe),
-        Exploration::Measure(mask) => Some(mask),
-        _ => None,
+        Exploration::Measure(mask) => mask,
+        _ => [false; N],
     };
-    let vbl_runs = est.vbl.iter().map(|f| f.samples).max().unwrap_or(0);
-    if let Some(mask) = explore.filter(|_| any_vbl && vbl_runs < MIN_VBL_PASSES && costs.vbl_passes < MIN_VBL_PASSES) {
-        return Some(Choice::Vbl(mask));
+    // Each measured component until it has its passes.
+    let unmeasured: [bool; N] = std::array::from_fn(|k| explore[k] && est.vbl[k].samples < MIN_VBL_PASSES);
+    if unmeasured.iter().any(|&m| m) {
+        return Some(Choice::Vbl(unmeasured));
     }
     // Error reduction per path-traced sample and per `vbl` pass of each component. A sample
     // of a component alone counts as one of a slice over several: it is as noisy or less
@@ -751,19 +794,20 @@ mod tests {
 
     /// `vbl` is measured where the probe finds it worth it: never on a component whose
     /// promise is below 1; on others as far as their passes fit in a tenth of the budget, or
-    /// in four tenths for a promise of [`PROMISING`] or more, most promising first; on every
-    /// needed component, without a probe, when one has no other estimator. Catches the old
-    /// rule (a first pass whatever the budget), the whole-pass rule (the 4-s cases then skip),
-    /// a promise that is not looked at (component 4 is measured at 17 s; made to fail so) and a
-    /// cap that is not raised for promising components (the last 4-s case then measures
-    /// component 3 instead of 2).
+    /// in four tenths for a promise of [`PROMISING`] or more, most promising first, and in the
+    /// time left; on every needed component, without a probe, when one has no other
+    /// estimator. A later verdict admits only [`PROMISING`] components. Catches the old rule
+    /// (a first pass whatever the budget), the whole-pass rule (the 4-s cases then skip), a
+    /// promise that is not looked at (component 4 is measured at 17 s; made to fail so), a cap
+    /// that is not raised for promising components (the last 4-s case then measures component
+    /// 3 instead of 2), the time left ignored and a later verdict that admits as the first.
     #[test]
     fn vbl_is_measured_where_the_probe_promises() {
-        let s = Duration::from_secs_f64;
         let mut needed = [false; N];
         needed[..5].fill(true);
-        assert_eq!(exploration(None, &needed, false, s(4.0)), Exploration::Probe);
-        assert_eq!(exploration(None, &needed, true, s(4.0)), Exploration::Measure(needed));
+        assert_eq!(exploration(None, &needed, false), Exploration::Probe);
+        assert_eq!(exploration(None, &needed, true), Exploration::Measure(needed));
+        let first = |p: &Probed, limit: f64| measured_by(p, &needed, 1.0, limit, limit);
         // Five components of 0.08 s and 0.02 s shared: four passes of 0.42 s take 1.68 s, a
         // tenth of 17 s.
         let mut cost = [0.0; N];
@@ -775,11 +819,8 @@ mod tests {
             cost,
             promise,
         };
-        assert_eq!(
-            exploration(Some(&even), &needed, false, s(17.0)),
-            Exploration::Measure(needed)
-        );
-        let only = |ks: &[usize]| Exploration::Measure(std::array::from_fn(|k| ks.contains(&k)));
+        assert_eq!(first(&even, 17.0), needed);
+        let only = |ks: &[usize]| -> [bool; N] { std::array::from_fn(|k| ks.contains(&k)) };
         promise[..5].copy_from_slice(&[1.5, 2.0, 8.0, 3.0, 0.5]);
         let p = Probed {
             shared: 0.02,
@@ -788,9 +829,13 @@ mod tests {
         };
         // 17 s: 0.425 s a pass for the components below PROMISING (all five would fit), 1.7 s
         // for component 2; component 4 loses even as flattered.
-        assert_eq!(exploration(Some(&p), &needed, false, s(17.0)), only(&[0, 1, 2, 3]));
+        assert_eq!(first(&p, 17.0), only(&[0, 1, 2, 3]));
         // 4 s: 0.1 s a pass, 0.4 s for component 2, which comes first.
-        assert_eq!(exploration(Some(&p), &needed, false, s(4.0)), only(&[2]));
+        assert_eq!(first(&p, 4.0), only(&[2]));
+        // With 0.3 s left of the 4 (0.075 s a pass), none fits.
+        assert_eq!(measured_by(&p, &needed, 1.0, 4.0, 0.3), [false; N]);
+        // A later verdict, at 17 s: only the promising one.
+        assert_eq!(measured_by(&p, &needed, PROMISING, 17.0, 17.0), only(&[2]));
         // Component 2 at 0.3 s: at 2 s (0.2 s a pass for it, 0.05 s for the others) nothing fits.
         cost[2] = 0.3;
         let dear = Probed {
@@ -798,12 +843,14 @@ mod tests {
             cost,
             promise,
         };
-        assert_eq!(exploration(Some(&dear), &needed, false, s(2.0)), Exploration::Skip);
-        assert_eq!(
-            exploration(Some(&dear), &needed, true, s(2.0)),
-            Exploration::Measure(needed)
-        );
-        assert_eq!(exploration(Some(&dear), &needed, false, s(4.0)), only(&[2]));
+        assert_eq!(first(&dear, 2.0), [false; N]);
+        let verdict = Verdict {
+            measure: first(&dear, 2.0),
+            pt_samples: 6,
+        };
+        assert_eq!(exploration(Some(&verdict), &needed, false), Exploration::Skip);
+        assert_eq!(exploration(Some(&verdict), &needed, true), Exploration::Measure(needed));
+        assert_eq!(first(&dear, 4.0), only(&[2]));
     }
 
     /// The probe's promise from films with known variances: the path tracer's variance per
