@@ -307,11 +307,11 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         ref_settings.seconds_per_half,
         o.ref_goal,
         o.ref_cap,
-        mitsuba
-            .as_deref()
-            .map_or(format!("not run ({})", mitsuba::INSTALL_HINT), |v| format!(
-                "{v}, `volpath`, via `bench/mitsuba_render.py`"
-            ))
+        match (&mitsuba, o.mitsuba) {
+            (Some(v), _) => format!("{v}, `volpath`, via `bench/mitsuba_render.py`"),
+            (None, false) => "not run (`--no-mitsuba`)".to_string(),
+            (None, true) => format!("not run ({})", mitsuba::INSTALL_HINT),
+        }
     );
     let _ = writeln!(
         summary,
