@@ -310,9 +310,7 @@ impl Auto {
             }
         }
     }
-}
 
-impl Auto {
     /// Takes the probe's verdict once its passes are in, and again each time the path
     /// tracer's samples of every component it serves have doubled since. A promise rests on
     /// the path tracer's variance per sample, which is heavy-tailed where rare paths find the
