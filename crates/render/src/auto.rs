@@ -60,7 +60,7 @@
 pub use crate::combine::{AutoReport, AutoSums, MIN_VBL_PASSES, PassMeans, vbl_only};
 use crate::{
     Film,
-    combine::Combined,
+    combine::{Combined, ComponentError, MIN_PT_SAMPLES},
     many_lights::{self, PassTimes},
     schedule::{Outcome, Remaining, Schedule, Snapshot, Step},
     source::{Finished, N},
@@ -119,6 +119,15 @@ impl Costs {
             .iter()
             .find(|(m, _, _)| m == mask)
             .map(|(_, seconds, spp)| seconds / (*spp).max(1) as f64)
+    }
+
+    /// The set of components whose path-traced samples cost least, and their seconds each.
+    fn cheapest_pt(&self) -> Option<([bool; N], f64)> {
+        self.pt
+            .iter()
+            .filter(|(_, _, spp)| *spp > 0)
+            .map(|(m, seconds, spp)| (*m, seconds / *spp as f64))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
     fn add_pt(&mut self, mask: &[bool; N], seconds: f64, spp: u64) {
@@ -370,19 +379,7 @@ impl Schedule for Auto {
                     left,
                 ) {
                     Some(choice) if first || choice_seconds(choice, &self.costs) <= left => vec![choice],
-                    // What is left fits only a shorter `pt` slice, if anything; with no
-                    // measured cost (nothing to render: a scene without light), one sample.
-                    _ => {
-                        let all = self.est.pt_serves();
-                        let k = match self.costs.pt_per_spp(&all) {
-                            None => u32::from(first),
-                            Some(c) => (left.max(0.0) / c.max(1e-9)).floor().min(u32::MAX as f64) as u32,
-                        };
-                        if k == 0 {
-                            return None;
-                        }
-                        vec![Choice::Pt(k, all)]
-                    }
+                    _ => vec![leftover(&self.costs, self.est.pt_serves(), left, first)?],
                 }
             }
         };
@@ -486,6 +483,23 @@ impl Schedule for Auto {
             components: combined.components,
             auto: Some(report),
         }
+    }
+}
+
+/// What fits in the `left` seconds where the schedule's choice does not: a shorter `pt` slice
+/// over every component it serves (`all`) or, where not one such sample fits, over the
+/// cheapest set measured (a set's cost may rest on a single sample, and one the machine slowed
+/// down would end the render early); `None` when nothing fits. With no measured cost (nothing
+/// to render, a scene without light), one sample on the `first` step.
+fn leftover(costs: &Costs, all: [bool; N], left: f64, first: bool) -> Option<Choice> {
+    let fits = |c: f64| (left.max(0.0) / c.max(1e-9)).floor().min(u32::MAX as f64) as u32;
+    match costs.pt_per_spp(&all) {
+        None => first.then_some(Choice::Pt(1, all)),
+        Some(c) if fits(c) > 0 => Some(Choice::Pt(fits(c), all)),
+        Some(_) => costs
+            .cheapest_pt()
+            .filter(|&(_, c)| fits(c) > 0)
+            .map(|(mask, c)| Choice::Pt(fits(c), mask)),
     }
 }
 
@@ -710,6 +724,8 @@ fn next_choice(
     // for sure), so the choice below errs towards the slice over all.
     let mut pt_gain = [0f64; N];
     let mut vbl_gain = [0f64; N];
+    // Path-traced samples a component still needs before they count (below).
+    let mut pending = [0u32; N];
     for k in 0..N {
         if !needed[k] {
             continue;
@@ -721,22 +737,12 @@ fn next_choice(
             vbl_gain[k] += e.vbl / n_vbl.max(1.0);
             continue;
         }
-        let n_pt = est.pt[k].samples as f64;
-        let (_, d_pt, d_vbl) = e.model(n_pt, n_vbl, est.vbl[k].samples >= MIN_VBL_PASSES);
-        pt_gain[k] = -d_pt;
-        vbl_gain[k] -= d_vbl;
+        let has_vbl = est.vbl[k].samples >= MIN_VBL_PASSES;
+        vbl_gain[k] -= e.model(est.pt[k].samples as f64, n_vbl, has_vbl).2;
+        (pt_gain[k], pending[k]) = path_traced_gain(e, est.pt[k].samples, est.vbl[k].samples);
     }
-    // The path tracer's best slice, by error reduction per second.
     let per_spp = |m: &[bool; N]| costs.pt_per_spp(m).unwrap_or(0.0).max(1e-9);
-    let (pt_best, pt_rate) = slices
-        .iter()
-        .map(|m| {
-            (
-                *m,
-                (0..N).filter(|&k| m[k]).map(|k| pt_gain[k]).sum::<f64>() / per_spp(m),
-            )
-        })
-        .fold((serves, 0.0), |best, c| if c.1 > best.1 { c } else { best });
+    let (pt_best, pt_rate, batch) = best_slice(&slices, &pt_gain, &pending, per_spp, left);
     // `vbl` components worth their own seconds against the path tracer's rate, as many as fit
     // in the time left.
     let mut worth = [false; N];
@@ -755,8 +761,49 @@ fn next_choice(
     if !any_pt {
         return None;
     }
-    let spp = ((slice / per_spp(&pt_best)).round() as u32).max(1);
+    let spp = ((slice / per_spp(&pt_best)).round() as u32).max(1).max(batch);
     Some(Choice::Pt(spp, pt_best))
+}
+
+/// The error reduction per path-traced sample of a component with `n_pt` samples and `n_vbl`
+/// passes of `vbl`, and the samples it must take at once for that (0: any number). Once
+/// `vbl`'s estimate is weighed, the path tracer's counts only from [`MIN_PT_SAMPLES`] samples
+/// on ([`crate::combine`]): fewer change nothing in the image, so the gain is that of the
+/// whole batch up to them, per sample of it. Counting each of them at the model's rate, a
+/// time budget took samples that were never weighed (in `caustic_sphere` at 96² and 4 s, 61
+/// samples of `direct`, 0.15 s).
+fn path_traced_gain(e: &ComponentError, n_pt: u64, n_vbl: u64) -> (f64, u32) {
+    let has_vbl = n_vbl >= MIN_VBL_PASSES;
+    let (n, m) = (n_pt as f64, n_vbl as f64);
+    if !has_vbl || n_pt >= MIN_PT_SAMPLES {
+        return (-e.model(n, m, has_vbl).1, 0);
+    }
+    let batch = MIN_PT_SAMPLES - n_pt;
+    let after = e.with_more_pt(n, batch as f64).model(MIN_PT_SAMPLES as f64, m, true).0;
+    ((e.vbl + e.bias2 - after) / batch as f64, batch as u32)
+}
+
+/// The path tracer's best slice by error reduction per second (each slice's components'
+/// `gain` per sample over its seconds per sample), leaving out the components whose `pending`
+/// batch it could not finish in `left` seconds; its rate, and the samples it must take.
+fn best_slice(
+    slices: &[[bool; N]],
+    gain: &[f64; N],
+    pending: &[u32; N],
+    per_spp: impl Fn(&[bool; N]) -> f64,
+    left: f64,
+) -> ([bool; N], f64, u32) {
+    let mut best = (slices[0], 0.0, 0);
+    for m in slices {
+        let counted: Vec<usize> = (0..N)
+            .filter(|&k| m[k] && pending[k] as f64 * per_spp(m) <= left)
+            .collect();
+        let rate = counted.iter().map(|&k| gain[k]).sum::<f64>() / per_spp(m);
+        if rate > best.1 {
+            best = (*m, rate, counted.iter().map(|&k| pending[k]).max().unwrap_or(0));
+        }
+    }
+    best
 }
 
 /// The components of `mask` that a `vbl` pass can compute in `left` seconds (`shared` and each
@@ -909,11 +956,76 @@ mod tests {
         assert_eq!(p.promise[1..], [0.0; N - 1]);
     }
 
+    /// Once `vbl`'s estimate of a component is weighed, the path tracer's samples of it count
+    /// from MIN_PT_SAMPLES on: below that, the gain is the batch's up to them, per sample, and
+    /// a slice takes the whole batch, or leaves the component out where the batch does not
+    /// fit in the time left. Catches the model's rate at the current count (1.56e-4 here
+    /// instead of 1.67e-4), a batch not taken and one not checked against the time left.
+    #[test]
+    fn path_traced_samples_count_from_their_minimum() {
+        // 16 samples of per-sample variance 0.16, `vbl` at 0.01: now `vbl` alone, 0.01; after
+        // 64 samples 1/(400 + 100) = 0.002.
+        let e = ComponentError {
+            pt: 0.01,
+            vbl: 0.01,
+            bias2: 0.0,
+            pt_tail2: 0.0,
+        };
+        let (gain, batch) = path_traced_gain(&e, 16, MIN_VBL_PASSES);
+        assert_eq!(batch, 48);
+        assert!((gain - 0.008 / 48.0).abs() < 1e-12, "{gain}");
+        // Before `vbl` is weighed, and from MIN_PT_SAMPLES on, sample by sample: the model's
+        // rate (0.16 / 16² alone).
+        let (gain, batch) = path_traced_gain(&e, 16, MIN_VBL_PASSES - 1);
+        assert_eq!(batch, 0);
+        assert!((gain - 0.16 / 256.0).abs() < 1e-12, "{gain}");
+        assert_eq!(path_traced_gain(&e, MIN_PT_SAMPLES, MIN_VBL_PASSES).1, 0);
+        // Slices over components 0 and 1 (0.01 s a sample) and over 1 alone (0.005 s);
+        // component 0 needs 48 samples at once.
+        let only = |ks: &[usize]| -> [bool; N] { std::array::from_fn(|k| ks.contains(&k)) };
+        let slices = [only(&[0, 1]), only(&[1])];
+        let mut gain = [0.0; N];
+        gain[..2].copy_from_slice(&[1.0, 0.5]);
+        let mut pending = [0; N];
+        pending[0] = 48;
+        let per_spp = |m: &[bool; N]| if m[0] { 0.01 } else { 0.005 };
+        // 1 s left: the batch (0.48 s) fits, the slice over both wins (150 against 100 a
+        // second) and takes 48 samples.
+        assert_eq!(
+            best_slice(&slices, &gain, &pending, per_spp, 1.0),
+            (slices[0], 150.0, 48)
+        );
+        // 0.3 s left: without component 0 it is worth 50 a second; component 1 alone wins.
+        assert_eq!(
+            best_slice(&slices, &gain, &pending, per_spp, 0.3),
+            (slices[1], 100.0, 0)
+        );
+    }
+
     /// A pass near the end of the budget computes the components that fit, by gain per second
     /// of their own cost; all when they fit, none when not even the shared part does. Catches
     /// a whole pass or nothing (the 0.55-s case), an order by gain alone (component 1's gain is
     /// the largest, its gain per second the second smallest: then [1] at 0.55 s) and a shared
     /// part left out of the sum (then [0, 1] at 0.55 s).
+    /// The time left after the schedule's last choice goes to the path tracer's samples that
+    /// fit: over every component it serves, or over the cheapest set where a sample over all
+    /// seems not to (its cost measured on one slow sample). Catches the old rule, which ended
+    /// the render there with time left (then `None` with 0.2 s left).
+    #[test]
+    fn the_time_left_goes_to_samples_that_fit() {
+        let all: [bool; N] = std::array::from_fn(|k| k < 3);
+        let one: [bool; N] = std::array::from_fn(|k| k == 1);
+        let mut costs = Costs::default();
+        assert_eq!(leftover(&costs, all, 0.2, true), Some(Choice::Pt(1, all)));
+        assert_eq!(leftover(&costs, all, 0.2, false), None);
+        costs.add_pt(&all, 0.05, 1);
+        costs.add_pt(&one, 0.02, 2);
+        assert_eq!(leftover(&costs, all, 0.2, false), Some(Choice::Pt(4, all)));
+        costs.add_pt(&all, 0.45, 1);
+        assert_eq!(leftover(&costs, all, 0.2, false), Some(Choice::Pt(20, one)));
+        assert_eq!(leftover(&costs, all, 0.005, false), None);
+    }
+
     #[test]
     fn a_pass_computes_what_fits_in_the_time_left() {
         let mask: [bool; N] = std::array::from_fn(|k| k < 4);

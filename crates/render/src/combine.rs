@@ -334,6 +334,17 @@ impl ComponentError {
         }
     }
 
+    /// The same error after `more` path-traced samples on top of `n_pt`: its variance of the
+    /// mean (and its missing tail, modelled as variance) scaled as the count.
+    pub(crate) fn with_more_pt(&self, n_pt: f64, more: f64) -> Self {
+        let scale = n_pt / (n_pt + more);
+        Self {
+            pt: self.pt * scale,
+            pt_tail2: self.pt_tail2 * scale,
+            ..*self
+        }
+    }
+
     /// The combined error with `n_pt` samples of `pt` and `n_vbl` passes of `vbl` (from the
     /// per-sample variances now), and its derivatives by each count.
     /// `pt`'s missing tail is modelled as variance: it shrinks as the samples that find the
