@@ -60,7 +60,7 @@
 pub use crate::combine::{AutoReport, AutoSums, MIN_VBL_PASSES, PassMeans, vbl_only};
 use crate::{
     Film,
-    combine::{Combined, ComponentError, MIN_PT_SAMPLES},
+    combine::{Combined, ComponentError, MIN_PT_SAMPLES, bias_decay},
     many_lights::{self, PassTimes},
     schedule::{Outcome, Remaining, Schedule, Snapshot, Step},
     source::{Finished, N},
@@ -204,6 +204,8 @@ pub struct Auto {
     last_combined: Instant,
     /// A pass budget (a fixed schedule) rather than a time one.
     fixed: bool,
+    /// How fast `vbl`'s bias falls with its passes ([`bias_decay`]).
+    bias_decay: f64,
     /// The probe's passes per component (thrown away as images; their variances say how
     /// noisy a `vbl` pass of each component is), and the probe passes planned.
     probe: Vec<Film>,
@@ -240,14 +242,15 @@ pub fn probe_size((w, h): (u32, u32)) -> (u32, u32) {
 
 impl Auto {
     /// A schedule for a `w` × `h` render whose first round is `first_round`, continuing
-    /// `resume`'s sums and unit count (a checkpoint) when given; `fixed` for a pass budget.
+    /// `resume`'s sums and unit count (a checkpoint) when given; `fixed` for a pass budget;
+    /// `alpha` the radius schedule's α (eq. 11) of its `vbl` passes.
     pub fn new(
         ts: &TraceScene,
-        w: u32,
-        h: u32,
+        (w, h): (u32, u32),
         first_round: u64,
         resume: Option<(&AutoSums, u64)>,
         fixed: bool,
+        alpha: f32,
     ) -> Result<Self, String> {
         let est = match resume {
             Some((sums, _)) => {
@@ -272,6 +275,7 @@ impl Auto {
             combined: Combined::new(w, h),
             last_combined: Instant::now(),
             fixed,
+            bias_decay: bias_decay(alpha as f64),
             probe: {
                 let (pw, ph) = probe_size((w, h));
                 (0..N).map(|_| Film::new(pw, ph)).collect()
@@ -375,6 +379,7 @@ impl Schedule for Auto {
                     self.verdict.as_ref(),
                     &self.costs,
                     &self.combined,
+                    self.bias_decay,
                     limit,
                     left,
                 ) {
@@ -674,6 +679,7 @@ fn next_choice(
     verdict: Option<&Verdict>,
     costs: &Costs,
     combined: &Combined,
+    bias_decay: f64,
     limit: Duration,
     left: f64,
 ) -> Option<Choice> {
@@ -738,7 +744,7 @@ fn next_choice(
             continue;
         }
         let has_vbl = est.vbl[k].samples >= MIN_VBL_PASSES;
-        vbl_gain[k] -= e.model(est.pt[k].samples as f64, n_vbl, has_vbl).2;
+        vbl_gain[k] -= e.model(est.pt[k].samples as f64, n_vbl, has_vbl, bias_decay).2;
         (pt_gain[k], pending[k]) = path_traced_gain(e, est.pt[k].samples, est.vbl[k].samples);
     }
     let per_spp = |m: &[bool; N]| costs.pt_per_spp(m).unwrap_or(0.0).max(1e-9);
@@ -776,10 +782,13 @@ fn path_traced_gain(e: &ComponentError, n_pt: u64, n_vbl: u64) -> (f64, u32) {
     let has_vbl = n_vbl >= MIN_VBL_PASSES;
     let (n, m) = (n_pt as f64, n_vbl as f64);
     if !has_vbl || n_pt >= MIN_PT_SAMPLES {
-        return (-e.model(n, m, has_vbl).1, 0);
+        return (-e.model(n, m, has_vbl, 0.0).1, 0);
     }
     let batch = MIN_PT_SAMPLES - n_pt;
-    let after = e.with_more_pt(n, batch as f64).model(MIN_PT_SAMPLES as f64, m, true).0;
+    let after = e
+        .with_more_pt(n, batch as f64)
+        .model(MIN_PT_SAMPLES as f64, m, true, 0.0)
+        .0;
     ((e.vbl + e.bias2 - after) / batch as f64, batch as u32)
 }
 

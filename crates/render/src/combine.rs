@@ -348,8 +348,9 @@ impl ComponentError {
     /// The combined error with `n_pt` samples of `pt` and `n_vbl` passes of `vbl` (from the
     /// per-sample variances now), and its derivatives by each count.
     /// `pt`'s missing tail is modelled as variance: it shrinks as the samples that find the
-    /// light accumulate.
-    pub(crate) fn model(&self, n_pt: f64, n_vbl: f64, has_vbl: bool) -> (f64, f64, f64) {
+    /// light accumulate. `vbl`'s bias shrinks too, as its radius does: by `bias_decay`, the
+    /// power of `n_vbl` it falls as (see [`bias_decay`]); 0 holds it fixed.
+    pub(crate) fn model(&self, n_pt: f64, n_vbl: f64, has_vbl: bool, bias_decay: f64) -> (f64, f64, f64) {
         let s_pt = (self.pt + self.pt_tail2) * n_pt;
         let p = if s_pt > 0.0 { n_pt / s_pt } else { f64::INFINITY };
         if !has_vbl {
@@ -367,9 +368,19 @@ impl ComponentError {
         }
         let mse = 1.0 / (p + q);
         let d_pt = if s_pt > 0.0 { -mse * mse / s_pt } else { 0.0 };
-        let d_vbl = -mse * mse * q * q * s_vbl / (n_vbl * n_vbl);
+        // d e_vbl / d n_vbl: the variance's −s/n², and the bias's −decay·B²/n.
+        let d_e_vbl = -s_vbl / (n_vbl * n_vbl) - bias_decay * self.bias2 / n_vbl;
+        let d_vbl = mse * mse * q * q * d_e_vbl;
         (mse, d_pt, d_vbl)
     }
+}
+
+/// The power of its passes by which `vbl`'s squared bias falls: 1 − α. The bias is the light
+/// its blur loses where a sphere or beam meets a surface (`ComponentError::bias2`), first
+/// order in the pass's radius r; the estimate's is the mean over its passes, and with eq. 11's
+/// r² ∝ i^(α−1) at pass i that mean falls as n^((α−1)/2), its square as n^(α−1).
+pub fn bias_decay(alpha: f64) -> f64 {
+    (1.0 - alpha).clamp(0.0, 1.0)
 }
 
 /// Whether each estimator's estimate of a component (from `pt_samples` path-traced samples
@@ -619,7 +630,7 @@ mod tests {
         assert_eq!(e.pt, 0.0);
         assert!(e.pt_tail2 > 0.0, "{e:?}");
         assert!(e.vbl_weight(true, true) > 0.9, "{e:?}");
-        let (mse, d_pt, d_vbl) = e.model(6.0, 4.0, true);
+        let (mse, d_pt, d_vbl) = e.model(6.0, 4.0, true, 0.3);
         assert!(mse > 0.0 && d_pt < 0.0 && d_vbl < 0.0, "{mse} {d_pt} {d_vbl}");
         // Both at zero: nothing to tell apart, no error.
         let e = errors(&pt, &film(w, h, 4, 0.0, 0.0), &means(6, 0.0, 0.0), &means(4, 0.0, 0.0));
@@ -636,27 +647,33 @@ mod tests {
             bias2: 0.01,
             pt_tail2: 0.0,
         };
-        let (mse, d_pt, _) = e.model(100.0, 10.0, false);
+        let (mse, d_pt, _) = e.model(100.0, 10.0, false, 0.3);
         assert!((mse - 0.5).abs() < 1e-12);
         assert!((d_pt + 0.5 / 100.0).abs() < 1e-12, "{d_pt}");
-        let (mse, d_pt, d_vbl) = e.model(100.0, 10.0, true);
-        assert!((mse - 1.0 / (1.0 / 0.5 + 1.0 / 0.26)).abs() < 1e-12);
         let h = 1e-3;
-        // Moving n while the per-sample variance stays put: the model's variance scales as
-        // n_then / n.
-        let scaled = |n_pt: f64, n_vbl: f64| {
-            ComponentError {
-                pt: 0.5 * 100.0 / n_pt,
-                vbl: 0.25 * 10.0 / n_vbl,
-                bias2: 0.01,
-                pt_tail2: 0.0,
-            }
-            .model(n_pt, n_vbl, true)
-            .0
-        };
-        let fd_pt2 = (scaled(100.0 + h, 10.0) - scaled(100.0 - h, 10.0)) / (2.0 * h);
-        let fd_vbl = (scaled(100.0, 10.0 + h) - scaled(100.0, 10.0 - h)) / (2.0 * h);
-        assert!((d_pt - fd_pt2).abs() < 1e-6 * fd_pt2.abs(), "{d_pt} vs {fd_pt2}");
-        assert!((d_vbl - fd_vbl).abs() < 1e-6 * fd_vbl.abs(), "{d_vbl} vs {fd_vbl}");
+        // With the bias held (decay 0) and falling as n^−0.3 (`bias_decay(0.7)`).
+        for decay in [0.0, bias_decay(0.7)] {
+            let (mse, d_pt, d_vbl) = e.model(100.0, 10.0, true, decay);
+            assert!((mse - 1.0 / (1.0 / 0.5 + 1.0 / 0.26)).abs() < 1e-12);
+            // Moving n while the per-sample variance stays put: the model's variance scales
+            // as n_then / n, the squared bias as (n_then / n)^decay.
+            let scaled = |n_pt: f64, n_vbl: f64| {
+                ComponentError {
+                    pt: 0.5 * 100.0 / n_pt,
+                    vbl: 0.25 * 10.0 / n_vbl,
+                    bias2: 0.01 * (10.0 / n_vbl).powf(decay),
+                    pt_tail2: 0.0,
+                }
+                .model(n_pt, n_vbl, true, decay)
+                .0
+            };
+            let fd_pt2 = (scaled(100.0 + h, 10.0) - scaled(100.0 - h, 10.0)) / (2.0 * h);
+            let fd_vbl = (scaled(100.0, 10.0 + h) - scaled(100.0, 10.0 - h)) / (2.0 * h);
+            assert!((d_pt - fd_pt2).abs() < 1e-6 * fd_pt2.abs(), "{d_pt} vs {fd_pt2}");
+            assert!(
+                (d_vbl - fd_vbl).abs() < 1e-6 * fd_vbl.abs(),
+                "{decay}: {d_vbl} vs {fd_vbl}"
+            );
+        }
     }
 }

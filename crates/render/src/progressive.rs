@@ -257,7 +257,14 @@ pub(crate) fn setup<'a>(
             None => None,
         };
         let fixed = matches!(opts.budget, Budget::Passes(_));
-        let schedule = Auto::new(ts, width, height, opts.first_pass, sums, fixed)?;
+        let schedule = Auto::new(
+            ts,
+            (width, height),
+            opts.first_pass,
+            sums,
+            fixed,
+            opts.many_lights.alpha,
+        )?;
         return Ok((sources, Box::new(schedule)));
     }
     let n_components = if opts.components { N } else { 0 };
