@@ -1011,11 +1011,6 @@ mod tests {
         );
     }
 
-    /// A pass near the end of the budget computes the components that fit, by gain per second
-    /// of their own cost; all when they fit, none when not even the shared part does. Catches
-    /// a whole pass or nothing (the 0.55-s case), an order by gain alone (component 1's gain is
-    /// the largest, its gain per second the second smallest: then [1] at 0.55 s) and a shared
-    /// part left out of the sum (then [0, 1] at 0.55 s).
     /// The time left after the schedule's last choice goes to the path tracer's samples that
     /// fit: over every component it serves, or over the cheapest set where a sample over all
     /// seems not to (its cost measured on one slow sample). Catches the old rule, which ended
@@ -1035,6 +1030,11 @@ mod tests {
         assert_eq!(leftover(&costs, all, 0.005, false), None);
     }
 
+    /// A pass near the end of the budget computes the components that fit, by gain per second
+    /// of their own cost; all when they fit, none when not even the shared part does. Catches
+    /// a whole pass or nothing (the 0.55-s case), an order by gain alone (component 1's gain is
+    /// the largest, its gain per second the second smallest: then [1] at 0.55 s) and a shared
+    /// part left out of the sum (then [0, 1] at 0.55 s).
     #[test]
     fn a_pass_computes_what_fits_in_the_time_left() {
         let mask: [bool; N] = std::array::from_fn(|k| k < 4);
