@@ -60,7 +60,7 @@
 pub use crate::combine::{AutoReport, AutoSums, MIN_VBL_PASSES, PassMeans, vbl_only};
 use crate::{
     Film,
-    combine::{Combined, ComponentError, MIN_PT_SAMPLES, bias_decay},
+    combine::{Combined, ComponentError, MIN_PT_SAMPLES, bias_decay, weighed},
     many_lights::{self, PassTimes},
     schedule::{Outcome, Remaining, Schedule, Snapshot, Step},
     source::{Finished, N},
@@ -774,14 +774,14 @@ fn next_choice(
 /// The error reduction per path-traced sample of a component with `n_pt` samples and `n_vbl`
 /// passes of `vbl`, and the samples it must take at once for that (0: any number). Once
 /// `vbl`'s estimate is weighed, the path tracer's counts only from [`MIN_PT_SAMPLES`] samples
-/// on ([`crate::combine`]): fewer change nothing in the image, so the gain is that of the
+/// on (`combine::weighed`): fewer change nothing in the image, so the gain is that of the
 /// whole batch up to them, per sample of it. Counting each of them at the model's rate, a
 /// time budget took samples that were never weighed (in `caustic_sphere` at 96² and 4 s, 61
 /// samples of `direct`, 0.15 s).
 fn path_traced_gain(e: &ComponentError, n_pt: u64, n_vbl: u64) -> (f64, u32) {
-    let has_vbl = n_vbl >= MIN_VBL_PASSES;
+    let (has_vbl, has_pt) = weighed(n_pt, n_vbl, false);
     let (n, m) = (n_pt as f64, n_vbl as f64);
-    if !has_vbl || n_pt >= MIN_PT_SAMPLES {
+    if !has_vbl || has_pt {
         return (-e.model(n, m, has_vbl, 0.0).1, 0);
     }
     let batch = MIN_PT_SAMPLES - n_pt;

@@ -379,7 +379,7 @@ impl ComponentError {
 /// its blur loses where a sphere or beam meets a surface (`ComponentError::bias2`), first
 /// order in the pass's radius r; the estimate's is the mean over its passes, and with eq. 11's
 /// r² ∝ i^(α−1) at pass i that mean falls as n^((α−1)/2), its square as n^(α−1).
-pub fn bias_decay(alpha: f64) -> f64 {
+pub(crate) fn bias_decay(alpha: f64) -> f64 {
     (1.0 - alpha).clamp(0.0, 1.0)
 }
 
@@ -387,7 +387,7 @@ pub fn bias_decay(alpha: f64) -> f64 {
 /// and `vbl_passes` passes) is weighed: `vbl`'s after [`MIN_VBL_PASSES`] (from its first
 /// when it alone serves the component); the path tracer's after [`MIN_PT_SAMPLES`] when
 /// `vbl`'s is, and from its second alone (it is then what there is).
-fn weighed(pt_samples: u64, vbl_passes: u64, vbl_only: bool) -> (bool, bool) {
+pub(crate) fn weighed(pt_samples: u64, vbl_passes: u64, vbl_only: bool) -> (bool, bool) {
     let has_vbl = vbl_passes >= MIN_VBL_PASSES || (vbl_only && vbl_passes > 0);
     let has_pt = !vbl_only && (pt_samples >= MIN_PT_SAMPLES || (!has_vbl && pt_samples >= 2));
     (has_vbl, has_pt)
