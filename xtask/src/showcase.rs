@@ -363,6 +363,27 @@ sigma_s = [0.06, 0.06, 0.06]
 sigma_a = [0.005, 0.005, 0.005]
 g = 0.25
 
+# The globes are clear glass: each bounds a medium of its own that scatters and absorbs nothing,
+# since the global fog would otherwise fill them too (a global medium fills every closed mesh
+# that is not a region, glass included). Fog inside a solid globe would scatter the bulb's
+# light into directions that total internal reflection keeps inside: such light leaves only
+# when the fog scatters it again, after tens to hundreds of bounces, and its rare photons and
+# beams carry up to hundreds of times the mean flux (isolated bright dots in a long render).
+[[media]]
+name = "globe0"
+region = "Globe0"
+sigma_s = [0, 0, 0]
+
+[[media]]
+name = "globe1"
+region = "Globe1"
+sigma_s = [0, 0, 0]
+
+[[media]]
+name = "globe2"
+region = "Globe2"
+sigma_s = [0, 0, 0]
+
 [materials.RedCar]
 kind = "phong"
 diffuse = [0.35, 0.03, 0.02]
