@@ -247,3 +247,69 @@ fn a_path_whose_power_turns_nan_is_counted() {
         assert_eq!(set.nonfinite_paths, want, "albedo {albedo}");
     }
 }
+
+/// A glass ball that bounds a medium scattering nothing is clear glass in fog (how CARS' globes
+/// are modelled): light paths from a point light at its centre and camera paths from a camera
+/// looking through it keep no record inside it, where a ball of the room's fog would hold the
+/// first stretch of every light path. Fails if glass stops switching the medium (the fog would
+/// fill the ball: tried, by leaving the interface off) or if a medium that scatters nothing
+/// keeps records again.
+#[test]
+fn clear_glass_holds_no_fog() {
+    use beamlight_scene::scene::MediumInterface;
+    use beamlight_testkit::gltf_writer::shapes;
+    use beamlight_trace::camera_paths::{CameraPathSettings, trace_camera_paths};
+    let (centre, radius) = (Vec3::new(0.0, 0.0, -0.5), 0.4);
+    for clear in [true, false] {
+        let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), centre, 40.0, 16, 16);
+        let wall = add_material(&mut s, lambert("wall", 0.5));
+        add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+        s.media.push(homogeneous(Rgb::splat(0.5), Rgb::splat(0.1), 0.3));
+        s.global_medium = Some(0);
+        let glass = add_material(
+            &mut s,
+            material(
+                "glass",
+                Some(Bsdf::Glass {
+                    ior: 1.5,
+                    tint: Rgb::ONE,
+                }),
+                Rgb::ZERO,
+                false,
+            ),
+        );
+        s.media.push(homogeneous(Rgb::ZERO, Rgb::ZERO, 0.0));
+        let interface = clear.then_some(MediumInterface {
+            inside: Some(1),
+            outside: Some(0),
+        });
+        add_mesh(&mut s, shapes::uv_sphere(centre, radius, 16, 32), glass, interface);
+        s.lights.push(PunctualLight::Point {
+            position: centre,
+            intensity: Rgb::ONE,
+        });
+        let ts = TraceScene::new(s);
+        let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 2000, 3, 0);
+        let cameras = trace_camera_paths(&ts, &CameraPathSettings::default(), 16, 16, 3, 0);
+        // Midpoints well inside the ball (its facets reach in to 0.98 r).
+        let inside = |o: [f32; 3], d: [f32; 3], len: f32| {
+            (Vec3::from(o) + Vec3::from(d) * (0.5 * len) - centre).length() < 0.9 * radius
+        };
+        let vrls_inside = lights.vrls.iter().filter(|v| inside(v.origin, v.dir, v.length)).count();
+        let segments_inside = cameras
+            .media_segments
+            .iter()
+            .filter(|v| inside(v.origin, v.dir, v.length))
+            .count();
+        assert!(lights.vrls.len() > 2000 && !cameras.media_segments.is_empty());
+        if clear {
+            assert_eq!(vrls_inside, 0, "VRLs inside clear glass");
+            assert_eq!(segments_inside, 0, "camera media segments inside clear glass");
+            assert!(lights.vrls.iter().chain(&lights.photon_beams).all(|v| v.medium == 0));
+        } else {
+            // Foggy glass: every path starts with a stretch from the centre to the glass.
+            assert!(vrls_inside >= 2000, "{vrls_inside} VRLs inside foggy glass");
+            assert!(segments_inside > 0);
+        }
+    }
+}

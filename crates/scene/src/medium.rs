@@ -24,6 +24,13 @@ impl Medium {
         self.sigma_s + self.sigma_a
     }
 
+    /// Whether light can scatter in the medium at all. One that cannot (σs = 0 in every
+    /// channel: a clear region, such as the inside of a clear glass globe in fog) holds no
+    /// virtual lights, beams or gather segments: they would carry no light.
+    pub fn scatters(&self) -> bool {
+        self.sigma_s.max_element() > 0.0
+    }
+
     pub fn is_homogeneous(&self) -> bool {
         self.density.is_none()
     }

@@ -292,7 +292,7 @@ fn trace_one(
             let length = media::extent(m, o, hit.map_or(f32::INFINITY, |h| h.t));
             // Finite and positive wherever something can scatter (`media::extent`, tested):
             // a segment skipped here holds no light.
-            if length.is_finite() && length > 0.0 {
+            if m.scatters() && length.is_finite() && length > 0.0 {
                 set.media_segments.push(MediaSegment {
                     origin: o.into(),
                     length,
@@ -410,8 +410,9 @@ fn walk_sharp_media(
         for _ in 0..=MAX_CROSSINGS {
             let hit = ts.bvh.closest_hit(o, wi, f32::INFINITY);
             if let Some(mi) = medium {
-                let length = media::extent(&scene.media[mi as usize], o, hit.map_or(f32::INFINITY, |h| h.t));
-                if length.is_finite() && length > 0.0 {
+                let medium_here = &scene.media[mi as usize];
+                let length = media::extent(medium_here, o, hit.map_or(f32::INFINITY, |h| h.t));
+                if medium_here.scatters() && length.is_finite() && length > 0.0 {
                     let stretch = MediaSegment {
                         origin: o.into(),
                         length,

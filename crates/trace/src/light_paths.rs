@@ -239,8 +239,9 @@ fn trace_one(
             // (A segment cut at the sampled collision would need the collision's survival
             // probability instead, which spectral tracking does not have in closed form.)
             let length = media::extent(m, o, tmax);
-            // Finite and positive wherever something can scatter (`media::extent`, tested).
-            if length.is_finite() && length > 0.0 {
+            // Finite and positive wherever something can scatter (`media::extent`, tested); a
+            // medium that scatters nothing (clear glass's inside) keeps no record.
+            if m.scatters() && length.is_finite() && length > 0.0 {
                 let seg = segment(o, d, length, mi, power, flags);
                 if settings.keep.vrls {
                     set.vrls.push(seg);
