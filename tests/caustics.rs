@@ -64,18 +64,7 @@ fn caustic_box(w: u32, h: u32, sigma_s: f32) -> Scene {
         Vec3::new(1.0, 0.0, 0.0),
         mirror,
     );
-    let glass = add_material(
-        &mut s,
-        material(
-            "glass",
-            Some(Bsdf::Glass {
-                ior: 1.5,
-                tint: Rgb::ONE,
-            }),
-            Rgb::ZERO,
-            false,
-        ),
-    );
+    let glass = add_material(&mut s, glass("glass", 1.5));
     add_box_outward(&mut s, Vec3::new(0.3, 0.2, -0.5), Vec3::new(0.7, 0.5, -0.1), glass);
     s.media.push(homogeneous(Rgb::splat(sigma_s), Rgb::splat(0.05), 0.3));
     s.global_medium = Some(0);

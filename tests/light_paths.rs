@@ -266,18 +266,7 @@ fn clear_glass_holds_no_fog() {
         add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
         s.media.push(homogeneous(Rgb::splat(0.5), Rgb::splat(0.1), 0.3));
         s.global_medium = Some(0);
-        let glass = add_material(
-            &mut s,
-            material(
-                "glass",
-                Some(Bsdf::Glass {
-                    ior: 1.5,
-                    tint: Rgb::ONE,
-                }),
-                Rgb::ZERO,
-                false,
-            ),
-        );
+        let glass = add_material(&mut s, glass("glass", 1.5));
         s.media.push(homogeneous(Rgb::ZERO, Rgb::ZERO, 0.0));
         let interface = clear.then_some(MediumInterface {
             inside: Some(1),

@@ -144,18 +144,7 @@ pub fn glass_furnace(size: u32, sphere_segments: u32, mirror: bool) -> beamlight
     s.camera = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.1, -0.1, -1.0), 80.0, size, size).camera;
     s.render.width = size;
     s.render.height = size;
-    let glass = add_material(
-        &mut s,
-        material(
-            "glass",
-            Some(Bsdf::Glass {
-                ior: 1.5,
-                tint: Rgb::ONE,
-            }),
-            Rgb::ZERO,
-            false,
-        ),
-    );
+    let glass = add_material(&mut s, glass("glass", 1.5));
     s.media.push(homogeneous(Rgb::new(2.0, 1.0, 3.0), Rgb::ZERO, -0.3));
     let sphere = shapes::uv_sphere(Vec3::new(-0.3, 0.0, -0.3), 0.45, sphere_segments / 2, sphere_segments);
     add_mesh(

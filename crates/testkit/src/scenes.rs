@@ -40,6 +40,11 @@ pub fn lambert(name: &str, albedo: f32) -> Material {
     )
 }
 
+/// Clear, untinted glass of index `ior`.
+pub fn glass(name: &str, ior: f32) -> Material {
+    material(name, Some(Bsdf::Glass { ior, tint: Rgb::ONE }), Rgb::ZERO, false)
+}
+
 /// An empty scene with a camera at `eye` looking at `target`.
 pub fn empty_scene(eye: Vec3, target: Vec3, yfov_deg: f32, width: u32, height: u32) -> Scene {
     let forward = (target - eye).normalize();
