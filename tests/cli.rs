@@ -1442,3 +1442,27 @@ fn the_default_method_is_auto_and_spp_counts_its_samples() {
         "{meta:?}"
     );
 }
+
+/// `info` says when glass is filled with the fog around it (`caustic_sphere`'s ball, which
+/// bounds no region) and when a medium is clear (CARS' globes, each a region of a medium that
+/// scatters and absorbs nothing), and does not say the first of clear glass.
+#[test]
+fn info_tells_foggy_glass_from_clear() {
+    let info = |scene: &str| {
+        let o = beamlight(&[
+            "info",
+            root().join(format!("assets/scenes/{scene}.toml")).to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let holds = "holds the medium around it";
+    let foggy = info("caustic_sphere");
+    assert!(foggy.contains(holds), "{foggy}");
+    let clear = info("cars_small");
+    assert!(!clear.contains(holds), "{clear}");
+    assert!(
+        clear.contains("globe0               bounded, clear (scatters and absorbs nothing)"),
+        "{clear}"
+    );
+}

@@ -7,6 +7,21 @@ use beamlight_render::components::{Component, SceneFeatures};
 use beamlight_scene::{bsdf::Bsdf, load::load_scene};
 use std::path::Path;
 
+/// For glass material `material`: a note when some of its triangles bound no region while the
+/// scene has a medium that scatters, since such glass is filled with the medium around it
+/// (docs/rendering.md, "Media": clear glass needs a region of its own).
+fn holds_medium(s: &beamlight_scene::Scene, material: usize) -> &'static str {
+    let unbounded = s
+        .triangles
+        .iter()
+        .any(|t| t.material as usize == material && t.interface.is_none());
+    if unbounded && s.media.iter().any(|m| m.scatters()) {
+        ", holds the medium around it where it bounds no region (clear glass needs one: docs/rendering.md, \"Media\")"
+    } else {
+        ""
+    }
+}
+
 pub(crate) fn info(path: &Path) -> Result<()> {
     let mut out = String::new();
     let scene = load_scene(path)?;
@@ -39,7 +54,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
         s.lights.len()
     );
     outln!(out, "materials");
-    for m in &s.materials {
+    for (mi, m) in s.materials.iter().enumerate() {
         let kind = match &m.bsdf {
             None => "medium boundary (index-matched)".to_string(),
             Some(Bsdf::Lambert { albedo }) => format!("lambert albedo {albedo:?}"),
@@ -51,7 +66,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
                 format!("phong diffuse {diffuse:?} specular {specular:?} exponent {exponent}")
             }
             Some(Bsdf::Mirror { reflectance }) => format!("mirror {reflectance:?}"),
-            Some(Bsdf::Glass { ior, .. }) => format!("glass ior {ior}"),
+            Some(Bsdf::Glass { ior, .. }) => format!("glass ior {ior}{}", holds_medium(s, mi)),
         };
         let emit = if m.is_emissive() {
             format!(", emits {:?}", m.emission)
@@ -68,6 +83,7 @@ pub(crate) fn info(path: &Path) -> Result<()> {
             "bounded"
         };
         let kind = match &m.density {
+            _ if m.sigma_t().max_element() <= 0.0 => "clear (scatters and absorbs nothing)".to_string(),
             None => "homogeneous".to_string(),
             Some(g) => format!("grid {}x{}x{}", g.res.x, g.res.y, g.res.z),
         };
