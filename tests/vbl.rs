@@ -641,13 +641,97 @@ fn a_sphere_larger_than_the_scene_still_gives_light() {
     assert!(a.max <= bound, "Lsm {} above {bound}", a.max);
 }
 
+/// The planar patches the walls are judged by (`patches::Patches`): a room's six walls are patches
+/// of two triangles with no open edge (every edge a concave corner); a block in it has six
+/// patches of two whose four edges are all open (convex folds), none a plate; a lone quad is a
+/// plate with four open edges; a ball's faces (quads of two triangles, triangles at the poles)
+/// are patches whose every edge is open; an invisible medium boundary has none. Made to fail by treating every shared
+/// edge as open (the room's walls then have four) and by calling every patch a plate.
+#[test]
+fn patches_follow_the_surfaces() {
+    use beamlight_testkit::gltf_writer::shapes;
+    use beamlight_trace::patches::Patches;
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 4, 4);
+    let wall = add_material(&mut s, lambert("wall", 0.5));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    let room = 0..s.triangles.len();
+    add_mesh(
+        &mut s,
+        shapes::cuboid(Vec3::splat(-0.5), Vec3::splat(-0.2), true),
+        wall,
+        None,
+    );
+    let block = room.end..s.triangles.len();
+    add_mesh(
+        &mut s,
+        shapes::quad(Vec3::new(0.2, 0.9, 0.2), Vec3::X * 0.2, Vec3::Z * 0.2),
+        wall,
+        None,
+    );
+    let plate = block.end..s.triangles.len();
+    add_mesh(
+        &mut s,
+        shapes::uv_sphere(Vec3::new(0.5, -0.5, 0.5), 0.2, 8, 16),
+        wall,
+        None,
+    );
+    let ball = plate.end..s.triangles.len();
+    let boundary = add_material(&mut s, material("boundary", None, Rgb::ZERO, false));
+    add_mesh(
+        &mut s,
+        shapes::cuboid(Vec3::splat(0.3), Vec3::splat(0.6), true),
+        boundary,
+        None,
+    );
+    let invisible = ball.end..s.triangles.len();
+    let p = Patches::build(&s);
+    // Open edges of triangle t's patch (a patch of one: the bits of its mask).
+    let open = |t: usize| match p.spans[t] {
+        [_, u32::MAX] => 0,
+        [mask, 0] => mask.count_ones(),
+        [_, count] => count,
+    };
+    for t in room {
+        assert_eq!((open(t), p.plate[t]), (0, false), "room triangle {t}: {:?}", p.spans[t]);
+    }
+    for t in block {
+        assert_eq!(
+            (open(t), p.plate[t]),
+            (4, false),
+            "block triangle {t}: {:?}",
+            p.spans[t]
+        );
+    }
+    for t in plate {
+        assert_eq!((open(t), p.plate[t]), (4, true), "plate triangle {t}: {:?}", p.spans[t]);
+    }
+    // A UV sphere's quads are planar trapezoids (two triangles); its poles are triangles.
+    for t in ball {
+        let alone = p.spans[t][1] == 0;
+        assert_eq!(
+            (open(t), p.plate[t]),
+            (if alone { 3 } else { 4 }, false),
+            "ball triangle {t}"
+        );
+    }
+    for t in invisible {
+        assert_eq!((p.spans[t], p.plate[t]), ([0, 0], false), "invisible triangle {t}");
+    }
+}
+
 /// The probes that find the walls next to a VSL centre (`vbl::Walls::around`), in a room
-/// [−1, 1]³ with a ball of radius 0.3 at the origin and an invisible medium boundary (a box
-/// x ∈ [0.5, 0.9]): at a corner the three walls within 2R, each once, facing the centre; no wall
-/// farther than 2R; the ball's plane only where a probe meets it head-on (its tangent plane at
-/// an oblique hit would cut the free space beside it); nothing through the invisible boundary;
-/// and for a VPL (surface `sheet`) no plane parallel to its own surface. Made to fail by
-/// dropping the head-on test (the oblique ball plane is then kept) and the 2R test.
+/// [−1, 1]³ with a ball of radius 0.3 at the origin, a solid block, a ramp tilted 45° and an
+/// invisible medium boundary (a box x ∈ [0.5, 0.9]): at a corner the three walls within 2R,
+/// each once, facing the centre (a room's concave edges end no wall); no wall farther than 2R;
+/// the block's face where it covers the plane within 2R of the centre, but not next to the
+/// block's convex edge, past which the space is free (`patches::Patches`); the ceiling behind a
+/// lamp's small plate hanging under it (the probe goes past a surface that ends within 2R,
+/// once); no plane of the ball,
+/// whose triangles are each far smaller than 2R, head-on or not; the ramp's large plane not
+/// from probes that meet it 45° off head-on; nothing through the invisible boundary; and for a
+/// VPL (surface `sheet`) no plane parallel to its own surface. Made to fail by dropping the
+/// head-on test (the ramp's plane is then kept), the 2R test, the patch coverage (the block's
+/// face next to its edge and the ball's plane are then kept) and the probe past the plate.
 #[test]
 fn probes_find_the_walls_next_to_a_centre() {
     use beamlight_testkit::gltf_writer::shapes;
@@ -656,6 +740,34 @@ fn probes_find_the_walls_next_to_a_centre() {
     let wall = add_material(&mut s, lambert("wall", 0.5));
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
     add_mesh(&mut s, shapes::uv_sphere(Vec3::ZERO, 0.3, 32, 64), wall, None);
+    add_mesh(
+        &mut s,
+        shapes::cuboid(Vec3::new(-0.2, 0.5, -0.2), Vec3::new(0.2, 0.9, 0.2), true),
+        wall,
+        None,
+    );
+    // The plane z = y + 1.2, facing (0, −1, 1)/√2, over x ∈ [0.4, 0.9], y ∈ [−0.9, −0.5].
+    add_mesh(
+        &mut s,
+        shapes::quad(
+            Vec3::new(0.4, -0.9, 0.3),
+            Vec3::new(0.5, 0.0, 0.0),
+            Vec3::new(0.0, 0.4, 0.4),
+        ),
+        wall,
+        None,
+    );
+    // A lamp's plate, 0.1 across, 0.01 under the ceiling, facing down.
+    add_mesh(
+        &mut s,
+        shapes::quad(
+            Vec3::new(-0.6, 0.99, -0.6),
+            Vec3::new(0.1, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.1),
+        ),
+        wall,
+        None,
+    );
     let boundary = add_material(&mut s, material("boundary", None, Rgb::ZERO, false));
     s.media.push(homogeneous(Rgb::splat(0.5), Rgb::ZERO, 0.0));
     add_mesh(
@@ -682,13 +794,29 @@ fn probes_find_the_walls_next_to_a_centre() {
     // within 2R.
     let c = Vec3::splat(-0.79);
     assert!(Walls::around(&ts, c, c, 0.1, None).planes().is_empty());
-    // Beside the ball, on an axis through its centre: the probe meets it head-on.
-    let c = Vec3::new(-0.45, 0.0, 0.0);
-    assert_eq!(normals(&Walls::around(&ts, c, c, 0.1, None)), vec![-Vec3::X]);
-    // Off that axis the +x probe meets the ball 40° from head-on: no plane.
-    let c = Vec3::new(-0.45, 0.193, 0.0);
-    let w = Walls::around(&ts, c, c, 0.1, None);
-    assert!(w.planes().is_empty(), "an oblique hit on the ball gave {w:?}");
+    // Beside the ball, on an axis through its centre, the probe meets it head-on, and off
+    // that axis 40° from head-on; its triangles (about 0.03 across) are no plane within 2R.
+    for c in [Vec3::new(-0.45, 0.0, 0.0), Vec3::new(-0.45, 0.193, 0.0)] {
+        let w = Walls::around(&ts, c, c, 0.1, None);
+        assert!(w.planes().is_empty(), "the ball gave {w:?} at {c}");
+    }
+    // 0.1 in front of the block's face z = −0.2, R = 0.06: within 2R the plane is a disc of
+    // radius 0.066 around (0, 0.7, −0.2), inside the face (0.2 from its edges).
+    let c = Vec3::new(0.0, 0.7, -0.3);
+    assert_eq!(normals(&Walls::around(&ts, c, c, 0.06, None)), vec![-Vec3::Z]);
+    // The same 0.03 from the face's edge at x = 0.2: the disc reaches past the block.
+    let c = Vec3::new(0.17, 0.7, -0.3);
+    let w = Walls::around(&ts, c, c, 0.06, None);
+    assert!(w.planes().is_empty(), "next to the block's edge: {w:?}");
+    // Under the plate, 0.1 from the ceiling: the +y probe meets the plate first, which ends
+    // within 2R, and goes on to the ceiling.
+    let c = Vec3::new(-0.55, 0.9, -0.55);
+    assert_eq!(normals(&Walls::around(&ts, c, c, 0.1, None)), vec![-Vec3::Y]);
+    // 0.057 in front of the ramp, whose plane covers 2R = 0.14 around: the −z and +y probes
+    // meet it 45° from head-on.
+    let c = Vec3::new(0.65, -0.7, 0.58);
+    let w = Walls::around(&ts, c, c, 0.07, None);
+    assert!(w.planes().is_empty(), "an oblique hit on the ramp gave {w:?}");
     // The invisible boundary at x = 0.5 is no wall (the ball is beyond the probes here).
     let c = Vec3::new(0.47, 0.0, 0.0);
     assert!(Walls::around(&ts, c, c, 0.05, None).planes().is_empty());

@@ -25,14 +25,32 @@ struct Triangle {
 struct TriangleInfo {
     // Position of the triangle in `triangles`.
     leaf_slot: u32,
-    // TRI_NULL_INTERFACE when shadow rays pass through it (a medium boundary without a BSDF).
+    // TRI_NULL_INTERFACE when shadow rays pass through it (a medium boundary without a BSDF);
+    // TRI_PLATE when its planar patch is a plate.
     flags: u32,
     // Media on the two sides, NO_MEDIUM for vacuum (meaningful only for interfaces).
     inside: u32,
     outside: u32,
+    // Its planar patch (`patches::Patches::spans`): the span of the patch's open edges in
+    // `patch_edges` (start, count); for a patch of one, the mask of its open edges (mask, 0);
+    // (0, PATCH_CLOSED) for a patch with none.
+    patch_start: u32,
+    patch_count: u32,
 }
 
+// An open edge of a planar patch: where the surface folds away or ends.
+struct PatchEdge {
+    a: vec3<f32>,
+    _pad0: u32,
+    b: vec3<f32>,
+    _pad1: u32,
+}
+
+const PATCH_CLOSED: u32 = 0xffffffffu;
+
 const TRI_NULL_INTERFACE: u32 = 1u;
+// Its planar patch is a plate: a surface whose open edges all end it (`patches::Patches::plate`).
+const TRI_PLATE: u32 = 2u;
 const NO_MEDIUM: u32 = 0xffffffffu;
 
 // A medium. Homogeneous when `grid_res.x` = 0; otherwise a density grid of `grid_res` cells
@@ -72,6 +90,7 @@ struct SceneInfo {
 @group(0) @binding(4) var<storage, read> media: array<Medium>;
 @group(0) @binding(5) var<storage, read> grid: array<f32>;
 @group(0) @binding(6) var<storage, read> triangles_more: array<Triangle>;
+@group(0) @binding(7) var<storage, read> patch_edges: array<PatchEdge>;
 
 // Triangle `k` in leaf order, from whichever binding holds it.
 fn leaf_triangle(k: u32) -> Triangle {

@@ -40,10 +40,26 @@ pub struct TriangleInfo {
     /// Media on the back and front side ([`NO_MEDIUM`] for vacuum).
     pub inside: u32,
     pub outside: u32,
+    /// The triangle's planar patch, `patches::Patches::spans`: its open edges in the scene's
+    /// `patch_edges` (start, count), or for a patch of one the mask of its open edges (mask, 0).
+    pub patch_start: u32,
+    pub patch_count: u32,
+}
+
+/// An open edge of a planar patch (`PatchEdge` in `lib/scene.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PatchEdge {
+    pub a: [f32; 3],
+    pub _pad0: u32,
+    pub b: [f32; 3],
+    pub _pad1: u32,
 }
 
 /// `TriangleInfo::flags`: a medium boundary without a BSDF, which shadow rays pass through.
 pub const TRI_NULL_INTERFACE: u32 = 1;
+/// `TriangleInfo::flags`: its planar patch is a plate (`patches::Patches::plate`).
+pub const TRI_PLATE: u32 = 2;
 /// A medium index meaning vacuum (the CPU's `camera_paths::NO_MEDIUM`).
 pub const NO_MEDIUM: u32 = u32::MAX;
 

@@ -10,7 +10,7 @@
 use crate::{
     Gpu, GpuError,
     compute::{self, Slot},
-    layout::{self, BvhNode, NO_MEDIUM, SceneInfo, TRI_NULL_INTERFACE, TriangleInfo},
+    layout::{self, BvhNode, NO_MEDIUM, PatchEdge, SceneInfo, TRI_NULL_INTERFACE, TRI_PLATE, TriangleInfo},
 };
 use beamlight_scene::Scene;
 use obvhs::{BvhBuildParams, bvh2::Bvh2};
@@ -99,6 +99,15 @@ fn preorder(bvh: &Bvh2) -> Vec<BvhNode> {
     out
 }
 
+/// What bind group 0 holds besides the BVH and the triangles.
+struct Parts<'a> {
+    info: &'a [TriangleInfo],
+    has_null_interfaces: bool,
+    media: &'a [layout::Medium],
+    grid: &'a [f32],
+    patch_edges: &'a [PatchEdge],
+}
+
 /// The scene's buffers and bind group (group 0 of the tracing kernels).
 pub struct GpuScene {
     pub layout: wgpu::BindGroupLayout,
@@ -106,9 +115,9 @@ pub struct GpuScene {
 }
 
 /// The slots of bind group 0, in binding order (see `lib/scene.wgsl`): the scene info, then
-/// six read-only storage buffers.
-pub const SCENE_SLOTS: [Slot; 7] = {
-    let mut slots = [Slot::Read; 7];
+/// seven read-only storage buffers.
+pub const SCENE_SLOTS: [Slot; 8] = {
+    let mut slots = [Slot::Read; 8];
     slots[0] = Slot::Uniform;
     slots
 };
@@ -125,12 +134,14 @@ impl GpuScene {
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Result<GpuScene, GpuError> {
         let positions: Vec<[glam::Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
         let bvh = FlatBvh::build(&positions);
+        let patches = beamlight_trace::patches::Patches::build(scene);
         let mut has_null_interfaces = false;
         let info: Vec<TriangleInfo> = scene
             .triangles
             .iter()
             .zip(&bvh.leaf_slot)
-            .map(|(t, &leaf_slot)| {
+            .zip(patches.spans.iter().zip(&patches.plate))
+            .map(|((t, &leaf_slot), (&[patch_start, patch_count], &plate))| {
                 let null = scene.materials[t.material as usize].bsdf.is_none();
                 has_null_interfaces |= null;
                 let (inside, outside) = t.interface.map_or((NO_MEDIUM, NO_MEDIUM), |i| {
@@ -138,9 +149,11 @@ impl GpuScene {
                 });
                 TriangleInfo {
                     leaf_slot,
-                    flags: if null { TRI_NULL_INTERFACE } else { 0 },
+                    flags: if null { TRI_NULL_INTERFACE } else { 0 } | if plate { TRI_PLATE } else { 0 },
                     inside,
                     outside,
+                    patch_start,
+                    patch_count,
                 }
             })
             .collect();
@@ -168,7 +181,23 @@ impl GpuScene {
                 g
             })
             .collect();
-        Self::from_parts(gpu, &bvh, &info, has_null_interfaces, &media, &grid, usize::MAX)
+        let edges: Vec<PatchEdge> = patches
+            .edges
+            .iter()
+            .map(|&[a, b]| PatchEdge {
+                a: a.into(),
+                b: b.into(),
+                ..Default::default()
+            })
+            .collect();
+        let parts = Parts {
+            info: &info,
+            has_null_interfaces,
+            media: &media,
+            grid: &grid,
+            patch_edges: &edges,
+        };
+        Self::from_parts(gpu, &bvh, &parts, usize::MAX)
     }
 
     /// Bare geometry: opaque triangles, no media (ray-query tests and benchmarks).
@@ -188,20 +217,28 @@ impl GpuScene {
                 flags: 0,
                 inside: NO_MEDIUM,
                 outside: NO_MEDIUM,
+                patch_start: 0,
+                patch_count: 0,
             })
             .collect();
-        Self::from_parts(gpu, &bvh, &info, false, &[], &[], per_binding)
+        let parts = Parts {
+            info: &info,
+            has_null_interfaces: false,
+            media: &[],
+            grid: &[],
+            patch_edges: &[],
+        };
+        Self::from_parts(gpu, &bvh, &parts, per_binding)
     }
 
-    fn from_parts(
-        gpu: &Gpu,
-        bvh: &FlatBvh,
-        info: &[TriangleInfo],
-        has_null_interfaces: bool,
-        media: &[layout::Medium],
-        grid: &[f32],
-        per_binding: usize,
-    ) -> Result<GpuScene, GpuError> {
+    fn from_parts(gpu: &Gpu, bvh: &FlatBvh, parts: &Parts, per_binding: usize) -> Result<GpuScene, GpuError> {
+        let Parts {
+            info,
+            has_null_interfaces,
+            media,
+            grid,
+            patch_edges,
+        } = *parts;
         // The triangles may need two bindings: split at the most one binding may hold.
         let fits = (compute::max_binding(gpu) / size_of::<layout::Triangle>() as u64) as usize;
         let split = bvh.triangles.len().min(per_binding).min(fits);
@@ -219,6 +256,7 @@ impl GpuScene {
             compute::storage(gpu, "media", media)?,
             compute::storage(gpu, "density grids", grid)?,
             compute::storage(gpu, "triangles beyond the first binding", &bvh.triangles[split..])?,
+            compute::storage(gpu, "planar patches' open edges", patch_edges)?,
         ];
         let layout = scene_layout(gpu);
         let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();

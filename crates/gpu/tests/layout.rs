@@ -51,7 +51,12 @@ fn scene_structs_match() {
     let w = parse("trace_rays.wgsl");
     check!(w, BvhNode, [lo, count, hi, first]);
     check!(w, Triangle, [p0, id, p1, _pad1, p2, _pad2]);
-    check!(w, TriangleInfo, [leaf_slot, flags, inside, outside]);
+    check!(
+        w,
+        TriangleInfo,
+        [leaf_slot, flags, inside, outside, patch_start, patch_count]
+    );
+    check!(w, PatchEdge, [a, _pad0, b, _pad1]);
     check!(
         w,
         Medium,

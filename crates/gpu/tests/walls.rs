@@ -102,6 +102,15 @@ fn queries(n: u32) -> Vec<WallsQuery> {
                 r: 0.05 + 0.45 * s.next_1d(),
             }
         })
+        // Only in the room's free space, where photons are: the block's bottom lies on the
+        // floor, and a probe from inside the block or from under the floor meets the two
+        // coincident faces at the same distance, the two traversals either one (the floor's
+        // plane goes on past the block's edges, the block's bottom does not).
+        .filter(|q| {
+            let c = Vec3::from(q.centre);
+            let in_block = c.cmpgt(BLOCK_LO).all() && c.cmplt(BLOCK_HI).all();
+            c.abs().max_element() < 1.0 && !in_block
+        })
         .collect()
 }
 

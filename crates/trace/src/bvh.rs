@@ -181,7 +181,13 @@ impl Bvh {
             // SAFETY: the CPU has the features `closest_hit_avx2` is compiled for.
             return unsafe { self.closest_hit_avx2(o, d, tmax) };
         }
-        self.closest_hit_with::<false>(o, d, tmax)
+        self.closest_hit_with::<false>(o, d, 0.0, tmax)
+    }
+
+    /// Closest hit with `t` in `(tmin, tmax)`: the next surface along a ray that met one at
+    /// `tmin`.
+    pub fn closest_hit_beyond(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.closest_hit_with::<false>(o, d, tmin, tmax)
     }
 
     /// True when anything lies on `o + t·d` for `t` in `(0, tmax)`.
@@ -197,7 +203,7 @@ impl Bvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     unsafe fn closest_hit_avx2(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
-        self.closest_hit_with::<true>(o, d, tmax)
+        self.closest_hit_with::<true>(o, d, 0.0, tmax)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -207,14 +213,14 @@ impl Bvh {
     }
 
     #[inline(always)]
-    fn closest_hit_with<const AVX2: bool>(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+    fn closest_hit_with<const AVX2: bool>(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let edges = EdgeTest::new(&TriangleRay::new(o, d));
         let mut best: Option<(f32, f32, f32, u32)> = None;
         let mut t_best = tmax;
         traverse::<_, AVX2>(bvh, &self.leaves, &self.ahead, NodeRay::new(o, d, tmax), |k, cull| {
             let tri = &self.leaves[k];
-            if let Some(h) = edges.intersect(tri.floats(), 0.0, t_best) {
+            if let Some(h) = edges.intersect(tri.floats(), tmin, t_best) {
                 t_best = h.0;
                 *cull = cull_beyond(t_best);
                 best = Some((h.0, h.1, h.2, tri.index));
@@ -591,7 +597,7 @@ mod tests {
     /// and the AVX2 one where the CPU has it.
     fn queries(bvh: &Bvh, o: Vec3, d: Vec3, tmax: f32) -> Vec<(Option<Hit>, bool)> {
         let mut out = vec![(
-            bvh.closest_hit_with::<false>(o, d, tmax),
+            bvh.closest_hit_with::<false>(o, d, 0.0, tmax),
             bvh.occluded_with::<false>(o, d, tmax),
         )];
         #[cfg(target_arch = "x86_64")]
@@ -602,11 +608,12 @@ mod tests {
         out
     }
 
-    /// The closest of `intersect_triangle`'s hits over all triangles: (t, b1, b2, index).
-    fn brute_force(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, f32, f32, usize)> {
+    /// The closest of `intersect_triangle`'s hits in (tmin, tmax) over all triangles: (t, b1,
+    /// b2, index).
+    fn brute_force(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32, f32, usize)> {
         tris.iter()
             .enumerate()
-            .filter_map(|(i, p)| intersect_triangle(o, d, p, 0.0, tmax).map(|h| (h.0, h.1, h.2, i)))
+            .filter_map(|(i, p)| intersect_triangle(o, d, p, tmin, tmax).map(|h| (h.0, h.1, h.2, i)))
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }
 
@@ -620,9 +627,21 @@ mod tests {
 
     /// The BVH's hit is a closest one of brute force (the same t; on a tie, as where a ray meets
     /// a shared vertex, any of the triangles at that t), and its t and barycentrics are exactly
-    /// what `intersect_triangle` reports for that triangle.
+    /// what `intersect_triangle` reports for that triangle; and so is the next hit beyond it
+    /// (`closest_hit_beyond`).
     fn assert_agrees(bvhs: &[Bvh], tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> bool {
-        let brute = brute_force(tris, o, d, tmax);
+        let brute = brute_force(tris, o, d, 0.0, tmax);
+        if let Some((t, ..)) = brute {
+            let next = brute_force(tris, o, d, t, tmax);
+            for bvh in bvhs {
+                let hit = bvh.closest_hit_beyond(o, d, t, tmax);
+                assert_eq!(
+                    hit.map(|h| h.t),
+                    next.map(|b| b.0),
+                    "ray {o} → {d} beyond {t}: bvh {hit:?}, brute {next:?}"
+                );
+            }
+        }
         for (hit, blocked) in bvhs.iter().flat_map(|bvh| queries(bvh, o, d, tmax)) {
             let context = || format!("ray {o} → {d}, tmax {tmax}: bvh {hit:?}, brute force {brute:?}");
             assert_eq!(hit.map(|h| h.t), brute.map(|b| b.0), "{}", context());

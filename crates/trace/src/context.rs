@@ -36,6 +36,8 @@ pub struct TraceScene {
     pub camera_medium: MediumId,
     /// Whether any triangle is an invisible medium boundary (shadow rays must then walk hits).
     has_null_interfaces: bool,
+    /// The planar patches of the surfaces, where a VSL's blur may treat them as walls.
+    pub patches: crate::patches::Patches,
 }
 
 impl SurfaceHit {
@@ -54,12 +56,14 @@ impl TraceScene {
             .triangles
             .iter()
             .any(|t| scene.materials[t.material as usize].bsdf.is_none());
+        let patches = crate::patches::Patches::build(&scene);
         let mut ts = Self {
             scene,
             bvh,
             lights,
             camera_medium: None,
             has_null_interfaces,
+            patches,
         };
         ts.camera_medium = ts.medium_at(ts.scene.camera.position());
         ts

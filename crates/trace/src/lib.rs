@@ -13,6 +13,7 @@ pub mod light_paths;
 pub mod light_tree;
 pub mod lights;
 pub mod media;
+pub mod patches;
 pub mod pt;
 pub mod spatial;
 pub mod streams;
