@@ -50,13 +50,15 @@ impl SurfaceHit {
 
 impl TraceScene {
     pub fn new(scene: Scene) -> Self {
-        let bvh = Bvh::build(&scene);
-        let lights = LightSampler::new(&scene);
+        // The patches (a sort of every edge) while the BVH is built.
+        let ((bvh, lights), patches) = rayon::join(
+            || (Bvh::build(&scene), LightSampler::new(&scene)),
+            || crate::patches::Patches::build(&scene),
+        );
         let has_null_interfaces = scene
             .triangles
             .iter()
             .any(|t| scene.materials[t.material as usize].bsdf.is_none());
-        let patches = crate::patches::Patches::build(&scene);
         let mut ts = Self {
             scene,
             bvh,

@@ -3,7 +3,7 @@
 //! plane (`vbl::Walls`).
 use beamlight_scene::Scene;
 use glam::Vec3;
-use std::collections::HashMap;
+use rayon::prelude::*;
 
 /// The planar patches of a scene's surfaces: triangles joined across shared edges (the same
 /// vertex positions, bit for bit) where both lie in one plane facing the same way. What ends a
@@ -33,6 +33,9 @@ pub struct Patches {
 /// coordinates written as floats, no more.
 const COPLANAR_OFFSET: f32 = 1e-5;
 const COPLANAR_NORMALS: f32 = 1.0 - 1e-6;
+/// An edge of a triangle: its end points' bits (in order), the triangle and which edge.
+type Side = (([u32; 3], [u32; 3]), u32, u8);
+
 /// [`Patches::spans`]' count for a patch with no open edge.
 const CLOSED: u32 = u32::MAX;
 
@@ -40,37 +43,36 @@ impl Patches {
     pub fn build(scene: &Scene) -> Self {
         let tris = &scene.triangles;
         let n = tris.len();
-        let key = |p: Vec3| p.to_array().map(f32::to_bits);
-        let edge_key = |a: Vec3, b: Vec3| {
-            let (ka, kb) = (key(a), key(b));
-            if ka <= kb { (ka, kb) } else { (kb, ka) }
-        };
-        let is_wall = |t: usize| {
-            scene.materials[tris[t].material as usize].bsdf.is_some() && tris[t].cross().length_squared() > 0.0
-        };
-        let normal = |t: usize| tris[t].cross().normalize();
-        let size = |t: usize| {
-            (0..3)
-                .map(|k| tris[t].p[k].distance(tris[t].p[(k + 1) % 3]))
-                .fold(0.0, f32::max)
-        };
-        // The third vertex of `b` (sharing an edge with `a`) over `a`'s plane, in `a`'s size.
+        let wall: Vec<bool> = tris
+            .iter()
+            .map(|t| scene.materials[t.material as usize].bsdf.is_some() && t.cross().length_squared() > 0.0)
+            .collect();
+        let normal: Vec<Vec3> = tris.iter().map(|t| t.cross().normalize_or_zero()).collect();
+        let size: Vec<f32> = tris
+            .iter()
+            .map(|t| (0..3).map(|k| t.p[k].distance(t.p[(k + 1) % 3])).fold(0.0, f32::max))
+            .collect();
+        // The vertex of `b` (sharing an edge with `a`) farthest off `a`'s plane, signed, in
+        // `a`'s size.
         let height = |a: usize, b: usize| {
-            let h = tris[b].p.iter().map(|&p| (p - tris[a].p[0]).dot(normal(a)));
+            let h = tris[b].p.iter().map(|&p| (p - tris[a].p[0]).dot(normal[a]));
             let (lo, hi) = h.fold((0.0f32, 0.0f32), |(lo, hi), x| (lo.min(x), hi.max(x)));
-            (if hi > -lo { hi } else { lo }) / size(a)
+            (if hi > -lo { hi } else { lo }) / size[a]
         };
         let coplanar =
-            |a: usize, b: usize| normal(a).dot(normal(b)) >= COPLANAR_NORMALS && height(a, b).abs() <= COPLANAR_OFFSET;
-        let mut by_edge: HashMap<_, Vec<u32>> = HashMap::new();
-        for i in (0..n).filter(|&i| is_wall(i)) {
+            |a: usize, b: usize| normal[a].dot(normal[b]) >= COPLANAR_NORMALS && height(a, b).abs() <= COPLANAR_OFFSET;
+        // Every edge of every wall triangle, keyed by its end points' bits, sorted so that the
+        // triangles sharing an edge are neighbours: (key, triangle, edge).
+        let key = |p: Vec3| p.to_array().map(f32::to_bits);
+        let mut sides: Vec<Side> = Vec::with_capacity(3 * n);
+        for (t, tri) in tris.iter().enumerate().filter(|(t, _)| wall[*t]) {
             for k in 0..3 {
-                by_edge
-                    .entry(edge_key(tris[i].p[k], tris[i].p[(k + 1) % 3]))
-                    .or_default()
-                    .push(i as u32);
+                let (a, b) = (key(tri.p[k]), key(tri.p[(k + 1) % 3]));
+                sides.push((if a <= b { (a, b) } else { (b, a) }, t as u32, k as u8));
             }
         }
+        sides.par_sort_unstable();
+        let shared: Vec<&[Side]> = sides.chunk_by(|x, y| x.0 == y.0).collect();
         // Union–find over the triangles joined across coplanar shared edges.
         let mut parent: Vec<u32> = (0..n as u32).collect();
         fn root(parent: &mut [u32], mut i: u32) -> u32 {
@@ -80,9 +82,9 @@ impl Patches {
             }
             i
         }
-        for sharing in by_edge.values() {
-            for (i, &a) in sharing.iter().enumerate() {
-                for &b in &sharing[i + 1..] {
+        for edge in &shared {
+            for (i, &(_, a, _)) in edge.iter().enumerate() {
+                for &(_, b, _) in &edge[i + 1..] {
                     if coplanar(a as usize, b as usize) {
                         let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
                         parent[ra as usize] = rb;
@@ -91,56 +93,56 @@ impl Patches {
             }
         }
         let roots: Vec<u32> = (0..n as u32).map(|i| root(&mut parent, i)).collect();
-        // An edge of triangle t is open unless a triangle of another patch shares it and rises
-        // on t's free side (a concave fold); an open edge is a rim when no other surface
-        // meets it at all.
-        let sharing = |t: usize, k: usize| &by_edge[&edge_key(tris[t].p[k], tris[t].p[(k + 1) % 3])];
-        let open = |t: usize, k: usize| {
-            let sharing = sharing(t, k);
-            let inner = sharing
-                .iter()
-                .any(|&o| o as usize != t && roots[o as usize] == roots[t]);
-            !inner
-                && !sharing
-                    .iter()
-                    .any(|&o| roots[o as usize] != roots[t] && height(t, o as usize) > COPLANAR_OFFSET)
-        };
-        let rim = |t: usize, k: usize| sharing(t, k).len() == 1;
-        let mut members: HashMap<u32, Vec<u32>> = HashMap::new();
-        for i in (0..n).filter(|&i| is_wall(i)) {
-            members.entry(roots[i]).or_default().push(i as u32);
+        // Per triangle, bit k: its edge k is open, i.e. no triangle of its own patch shares
+        // it and no other surface rises from it on its free side (a concave fold); bit 3 + k:
+        // that open edge is a rim, met by no other surface at all.
+        let mut edge_bits = vec![0u8; n];
+        for edge in &shared {
+            for &(_, t, k) in edge.iter() {
+                let (t, r) = (t as usize, roots[t as usize]);
+                let closed = edge.iter().any(|&(_, o, _)| {
+                    let o = o as usize;
+                    o != t && (roots[o] == r || height(t, o) > COPLANAR_OFFSET)
+                });
+                if !closed {
+                    edge_bits[t] |= 1 << k | (((edge.len() == 1) as u8) << (3 + k));
+                }
+            }
         }
         let mut patches = Patches {
             spans: vec![[0, 0]; n],
             edges: Vec::new(),
             plate: vec![false; n],
         };
-        let mut groups: Vec<Vec<u32>> = members.into_values().collect();
-        groups.sort_unstable();
-        for group in groups {
-            let (mut opens, mut rims) = (0, 0);
-            for &t in &group {
-                for k in 0..3 {
-                    if open(t as usize, k) {
-                        opens += 1;
-                        rims += rim(t as usize, k) as u32;
-                    }
-                }
-            }
-            for &t in &group {
+        // The patches, each a run of triangles sorted by root (then index: deterministic).
+        let mut order: Vec<(u32, u32)> = (0..n as u32)
+            .filter(|&t| wall[t as usize])
+            .map(|t| (roots[t as usize], t))
+            .collect();
+        order.sort_unstable();
+        for group in order.chunk_by(|x, y| x.0 == y.0) {
+            let opens: u32 = group
+                .iter()
+                .map(|&(_, t)| (edge_bits[t as usize] & 7).count_ones())
+                .sum();
+            let rims: u32 = group
+                .iter()
+                .map(|&(_, t)| (edge_bits[t as usize] >> 3).count_ones())
+                .sum();
+            for &(_, t) in group {
                 patches.plate[t as usize] = opens > 0 && rims == opens;
             }
-            if let [t] = group[..] {
-                let mask = (0..3).filter(|&k| open(t as usize, k)).fold(0, |m, k| m | 1 << k);
-                patches.spans[t as usize] = [mask, 0];
+            if let [(_, t)] = group {
+                patches.spans[*t as usize] = [(edge_bits[*t as usize] & 7) as u32, 0];
                 continue;
             }
             let start = patches.edges.len();
-            for &t in &group {
+            for &(_, t) in group {
                 let p = tris[t as usize].p;
+                let bits = edge_bits[t as usize];
                 patches
                     .edges
-                    .extend((0..3).filter(|&k| open(t as usize, k)).map(|k| [p[k], p[(k + 1) % 3]]));
+                    .extend((0..3).filter(|&k| bits & (1 << k) != 0).map(|k| [p[k], p[(k + 1) % 3]]));
             }
             let count = patches.edges.len() - start;
             let span = if count == 0 {
@@ -148,7 +150,7 @@ impl Patches {
             } else {
                 [start as u32, count as u32]
             };
-            for &t in &group {
+            for &(_, t) in group {
                 patches.spans[t as usize] = span;
             }
         }
