@@ -304,7 +304,7 @@ fn compare_gathers_chunked(
         return;
     };
     let ts = TraceScene::new(scene);
-    let mut backend = GpuBackend::open(&ts.scene).unwrap();
+    let mut backend = GpuBackend::open(&ts).unwrap();
     if let Some(records) = chunk {
         backend.gathers.set_chunk_limit(records);
     }
@@ -607,7 +607,7 @@ fn a_kernel_not_compiled_is_an_error() {
         return;
     };
     let ts = TraceScene::new(glossy_fog_box(false));
-    let backend = GpuBackend::open_for(&ts.scene, &GatherKernel::RAYS).unwrap();
+    let backend = GpuBackend::open_for(&ts, &GatherKernel::RAYS).unwrap();
     let (w, h) = (ts.scene.render.width, ts.scene.render.height);
     let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), w, h, 1, 0);
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 8, 1, 0);
@@ -637,7 +637,7 @@ fn a_gather_past_the_drivers_loop_cap_is_an_error() {
         return;
     };
     let ts = TraceScene::new(glossy_fog_box(false));
-    let backend = GpuBackend::open_for(&ts.scene, &GatherKernel::BEAMS).unwrap();
+    let backend = GpuBackend::open_for(&ts, &GatherKernel::BEAMS).unwrap();
     let gather = trace_camera_paths(&ts, &CameraPathSettings::default(), 4, 4, 1, 0);
     let lights = trace_light_paths(&ts, &LightTracerSettings::default(), 8, 1, 0);
     let vbl_tree = LightTree::over_vbls(&ts.scene, &lights.vrls, 0.2);
@@ -805,7 +805,7 @@ fn a_shortened_vbl_pass_matches_across_backends() {
         return;
     };
     let ts = TraceScene::new(bounded_fog_with_mirror());
-    let backend = GpuBackend::open(&ts.scene).unwrap();
+    let backend = GpuBackend::open(&ts).unwrap();
     let given = ManyLightSettings {
         light_paths_per_pass: 24,
         caustic_paths: Some(1024),
@@ -897,7 +897,7 @@ fn compare_renders(method: Method, scene: Scene) {
         return;
     };
     let ts = TraceScene::new(scene);
-    let backend = Arc::new(GpuBackend::open(&ts.scene).unwrap());
+    let backend = Arc::new(GpuBackend::open(&ts).unwrap());
     assert!(
         backend.gpu.timestamps,
         "the test adapter has no timestamp queries: nothing shows that the gathers ran on it"

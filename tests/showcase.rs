@@ -92,7 +92,7 @@ fn renders_everywhere(name: &str, size: (u32, u32)) {
     if beamlight_gpu::device::for_tests().is_none() {
         return;
     }
-    let gpu = Arc::new(beamlight_gpu::GpuBackend::open(&ts.scene).unwrap());
+    let gpu = Arc::new(beamlight_gpu::GpuBackend::open(&ts).unwrap());
     for method in [Method::Vrl, Method::VrlClamped, Method::Vbl] {
         let mut opts = options(method, size, Budget::Passes(1), 3);
         opts.gpu = Some(gpu.clone());

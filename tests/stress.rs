@@ -128,7 +128,7 @@ fn extreme_media_and_materials_stay_finite_for_every_method_and_backend() {
                 let scene = extreme_box(sigma_t, albedo, g, exponent);
                 let what = format!("g {g}, σt {sigma_t}, albedo {albedo}, Phong n {exponent}");
                 let ts = TraceScene::new(scene);
-                let backend = gpu_on.then(|| Arc::new(GpuBackend::open(&ts.scene).unwrap()));
+                let backend = gpu_on.then(|| Arc::new(GpuBackend::open(&ts).unwrap()));
                 for method in METHODS {
                     let cpu = render(&ts, &options(method, w, passes, None), |_| true).unwrap();
                     assert_finite(&format!("{what}, {} on the CPU", method.name()), &cpu);
@@ -578,7 +578,7 @@ fn degenerate_virtual_light_geometry_stays_finite() {
     let Some(_) = beamlight_gpu::device::for_tests() else {
         return;
     };
-    let backend = GpuBackend::open(&ts.scene).unwrap();
+    let backend = GpuBackend::open(&ts).unwrap();
     // Every kernel, all pairs, on the GPU.
     let gather_all_pairs = |sp: &ShadingPoint,
                             segments: &[MediaSegment],
@@ -711,7 +711,7 @@ fn camera_and_light_inside_glass() {
             light_inside || ts.camera_medium == Some(1),
             "the camera is in the sphere's fog"
         );
-        let backend = gpu_on.then(|| Arc::new(GpuBackend::open(&ts.scene).unwrap()));
+        let backend = gpu_on.then(|| Arc::new(GpuBackend::open(&ts).unwrap()));
         for method in METHODS {
             for gpu in [None, backend.clone()] {
                 if gpu.is_some() && method == Method::Pt {

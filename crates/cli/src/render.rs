@@ -138,8 +138,7 @@ pub(crate) fn render(args: RenderArgs, start: Instant) -> Result<()> {
         Budget::Time(t) => Some(t.as_secs_f64()),
         Budget::Passes(_) => None,
     };
-    let device =
-        beamlight_render::backend::open(args.backend.0, method, &ts.scene, seconds).map_err(anyhow::Error::msg)?;
+    let device = beamlight_render::backend::open(args.backend.0, method, &ts, seconds).map_err(anyhow::Error::msg)?;
     let gpu_time = opening.elapsed();
     if args.stats {
         eprintln!(

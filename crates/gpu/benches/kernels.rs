@@ -27,7 +27,7 @@ fn main() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/scenes/cornell_glossy_fog.toml");
     let scene = load_scene(&path).expect("bundled scene");
     let ts = TraceScene::new(scene);
-    let backend = match GpuBackend::open(&ts.scene) {
+    let backend = match GpuBackend::open(&ts) {
         Ok(b) => b,
         Err(e) => {
             eprintln!("no GPU: {e}");

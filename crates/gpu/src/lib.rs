@@ -21,17 +21,20 @@ pub struct GpuBackend {
 }
 
 impl GpuBackend {
-    /// Opens the best adapter (see [`device`]), uploads `scene` and compiles every gather
-    /// kernel.
-    pub fn open(scene: &beamlight_scene::Scene) -> Result<GpuBackend, GpuError> {
-        Self::open_for(scene, &gather::GatherKernel::ALL)
+    /// Opens the best adapter (see [`device`]), uploads `ts`'s scene (with the planar patches
+    /// it has built) and compiles every gather kernel.
+    pub fn open(ts: &beamlight_trace::TraceScene) -> Result<GpuBackend, GpuError> {
+        Self::open_for(ts, &gather::GatherKernel::ALL)
     }
 
     /// [`GpuBackend::open`] compiling only `kernels` (a method's: compiling one costs about a
     /// third of a second on lavapipe); running another is an error.
-    pub fn open_for(scene: &beamlight_scene::Scene, kernels: &[gather::GatherKernel]) -> Result<GpuBackend, GpuError> {
+    pub fn open_for(
+        ts: &beamlight_trace::TraceScene,
+        kernels: &[gather::GatherKernel],
+    ) -> Result<GpuBackend, GpuError> {
         let gpu = Gpu::open()?;
-        let gpu_scene = GpuScene::upload(&gpu, scene)?;
+        let gpu_scene = GpuScene::upload_with(&gpu, &ts.scene, &ts.patches)?;
         let gathers = gather::Gathers::new(&gpu, &gpu_scene, kernels)?;
         Ok(GpuBackend {
             gpu,

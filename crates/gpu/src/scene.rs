@@ -13,6 +13,7 @@ use crate::{
     layout::{self, BvhNode, NO_MEDIUM, PatchEdge, SceneInfo, TRI_NULL_INTERFACE, TRI_PLATE, TriangleInfo},
 };
 use beamlight_scene::Scene;
+use beamlight_trace::patches::Patches;
 use obvhs::{BvhBuildParams, bvh2::Bvh2};
 
 /// The flattened BVH2 and leaf-ordered triangles, before upload. `nodes` are in depth-first
@@ -132,9 +133,13 @@ fn medium_index(m: Option<u32>) -> u32 {
 
 impl GpuScene {
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Result<GpuScene, GpuError> {
+        Self::upload_with(gpu, scene, &Patches::build(scene))
+    }
+
+    /// [`GpuScene::upload`] with the scene's planar patches already built (a `TraceScene`'s).
+    pub fn upload_with(gpu: &Gpu, scene: &Scene, patches: &Patches) -> Result<GpuScene, GpuError> {
         let positions: Vec<[glam::Vec3; 3]> = scene.triangles.iter().map(|t| t.p).collect();
         let bvh = FlatBvh::build(&positions);
-        let patches = beamlight_trace::patches::Patches::build(scene);
         let mut has_null_interfaces = false;
         let info: Vec<TriangleInfo> = scene
             .triangles

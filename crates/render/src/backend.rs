@@ -2,7 +2,7 @@
 //! for `beamlight info`, which says what `--backend auto` would do.
 use crate::method::Method;
 use beamlight_gpu::GpuBackend;
-use beamlight_scene::Scene;
+use beamlight_trace::TraceScene;
 use std::{path::PathBuf, sync::Arc};
 
 /// `--backend`.
@@ -187,7 +187,7 @@ pub fn budget_too_short(
 }
 
 /// Opens the device of a render; `budget`: its time budget in seconds, when it has one.
-pub fn open(backend: Backend, method: Method, scene: &Scene, budget: Option<f64>) -> Result<Device, String> {
+pub fn open(backend: Backend, method: Method, ts: &TraceScene, budget: Option<f64>) -> Result<Device, String> {
     let has_kernels = method.has_gpu_kernels();
     let gathers = match method.virtual_lights() {
         Some(crate::many_lights::VirtualLights::Beams) => "VBL/VSL gathers",
@@ -195,7 +195,7 @@ pub fn open(backend: Backend, method: Method, scene: &Scene, budget: Option<f64>
     };
     // Only the method's kernels are compiled (a method without any opens none).
     let kernels = method.virtual_lights().map(crate::many_lights::gpu_kernels);
-    let open = || GpuBackend::open_for(scene, kernels.as_ref().map_or(&[][..], |k| &k[..])).map(Arc::new);
+    let open = || GpuBackend::open_for(ts, kernels.as_ref().map_or(&[][..], |k| &k[..])).map(Arc::new);
     let fixed = |gpu, line| Device {
         gpu,
         line,
@@ -272,11 +272,7 @@ const CLEAR: f64 = 1.5;
 /// for warming up (0.13 s with lavapipe, more than a 32x32 pass), which the render's passes
 /// do not. The passes are thrown away: only the render's passes make the image, which is
 /// therefore the one a render on the winning side alone gives.
-pub fn measure(
-    ts: &beamlight_trace::TraceScene,
-    opts: &crate::RenderOptions,
-    gpu: &GpuBackend,
-) -> Result<Trial, String> {
+pub fn measure(ts: &TraceScene, opts: &crate::RenderOptions, gpu: &GpuBackend) -> Result<Trial, String> {
     use crate::source::{ManyLights, N, PassOutput, PassSource};
     use beamlight_trace::camera_paths::PixelShare;
     let source = |gpu, (w, h): (u32, u32)| ManyLights {
