@@ -40,6 +40,10 @@ pub const USAGE: &str = "usage: cargo xtask bench [options]
   --ref-methods M,...   the reference's estimators: pt, or pt and a second independent one
                         (e.g. pt,vrl), checked against each other per component and combined;
                         'auto' (default): pt, plus vrl where the scene has caustics
+  --only C,...          restrict every render and the reference to these components (e.g.
+                        Lmm): each series is then that component alone (`render --only`), and
+                        the reference's floor under it is far lower than a whole-image
+                        reference's layer (not with the method auto, which picks its own)
   --repeats N           renders per budget (different seeds), medians reported (default 1)
   --target R            relMSE for the time-to-target table (default: what pt reaches at
                         the middle budget, per scene)
@@ -64,6 +68,8 @@ struct Options {
     ref_methods: Option<Vec<String>>,
     /// `None`: [`renderer_id`].
     ref_renderer: Option<String>,
+    /// Components every render and the reference are restricted to (`render --only`).
+    only: Option<String>,
     repeats: u32,
     target: Option<f64>,
     mitsuba: bool,
@@ -96,6 +102,7 @@ fn parse(args: &[String]) -> Result<Options> {
         ref_cap: 4.0,
         ref_methods: None,
         ref_renderer: None,
+        only: None,
         repeats: 1,
         target: None,
         mitsuba: true,
@@ -147,6 +154,7 @@ fn parse(args: &[String]) -> Result<Options> {
             "--ref-cap" => o.ref_cap = num(flag, v)?.max(1.0),
             "--ref-renderer" => o.ref_renderer = Some(v.to_string()),
             "--ref-methods" => o.ref_methods = (v != "auto").then(|| list(v)),
+            "--only" => o.only = Some(list(v).join(",")),
             "--repeats" => o.repeats = num(flag, v)? as u32,
             "--target" => o.target = Some(num(flag, v)?),
             "--check-scene" => o.check_scene = (v != "none").then(|| v.clone()),
@@ -164,6 +172,24 @@ fn parse(args: &[String]) -> Result<Options> {
     for m in o.ref_methods.iter().flatten() {
         if !["pt", "vrl", "vrl-clamped", "vbl", "auto"].contains(&m.as_str()) {
             bail!("unknown reference method '{m}'");
+        }
+    }
+    if let Some(only) = &o.only {
+        if only.is_empty() {
+            bail!("--only needs at least one component");
+        }
+        let known: Vec<&str> = report::component_names().collect();
+        for c in only.split(',') {
+            if !known.contains(&c) {
+                bail!("--only: unknown component '{c}' ({})", known.join(", "));
+            }
+        }
+        if o.methods
+            .iter()
+            .chain(o.ref_methods.iter().flatten())
+            .any(|m| m == "auto")
+        {
+            bail!("--only restricts what a method estimates, which auto decides itself: drop auto from the methods");
         }
     }
     if o.ref_methods.as_ref().is_some_and(|m| m.is_empty() || m.len() > 2) {
@@ -286,6 +312,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         // One round for the convention check's `pt` reference (its ratio accounts for the
         // reference's own error); each bench scene's gets its cap below.
         max_seconds: 0.0,
+        only: None,
     };
     let budgets: Vec<f64> = o.budgets.iter().map(|b| b * o.scale).collect();
     let mut summary = String::new();
@@ -313,6 +340,12 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
             (None, true) => format!("not run ({})", mitsuba::INSTALL_HINT),
         }
     );
+    if let Some(only) = &o.only {
+        let _ = writeln!(
+            summary,
+            "**Restricted to {only}**: every render and the reference estimate only these components (`--only {only}`), so each error below is theirs alone, against a reference of them alone; Mitsuba does not run.\n"
+        );
+    }
     let _ = writeln!(
         summary,
         "Columns and method: [docs/benchmarks.md](../../docs/benchmarks.md). Errors are relMSE against the reference; the reference's own estimated relMSE is a floor under every error.\n"
@@ -326,14 +359,18 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         let sname = scene_name(&scene);
         let swork = work.join(&sname);
         std::fs::create_dir_all(&swork)?;
+        // A second estimator where the path tracer is slow: the caustics, unless the renders
+        // are restricted to components without them.
+        let caustics_wanted = o.only.as_ref().is_none_or(|c| c.contains("caustic_"));
         let ref_methods = match &o.ref_methods {
             Some(m) => m.clone(),
-            None if has_caustics(&bin, &scene)? => vec!["pt".into(), "vrl".into()],
+            None if caustics_wanted && has_caustics(&bin, &scene)? => vec!["pt".into(), "vrl".into()],
             None => vec!["pt".into()],
         };
         let scene_ref = reference::RefSettings {
             max_seconds: o.ref_cap * 2.0 * ref_settings.seconds_per_half * ref_methods.len() as f64,
             methods: ref_methods,
+            only: o.only.clone(),
             ..ref_settings.clone()
         };
         let reference = reference::make_or_reuse(&bin, &cache, &scene, &scene_ref)?;
@@ -361,7 +398,8 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
         }
         let mut not_exported = Vec::new();
         let xml = swork.join("mitsuba/scene.xml");
-        if mitsuba.is_some() {
+        // Mitsuba renders the whole image: it has no place in a bench of some components.
+        if mitsuba.is_some() && o.only.is_none() {
             std::fs::create_dir_all(xml.parent().expect("a parent"))?;
             not_exported = mitsuba::export(&bin, &scene, &xml, o.size)?;
             series.push(SeriesKey {
@@ -370,6 +408,10 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
                 backend: "llvm".into(),
             });
         }
+        let only_args: Vec<&str> = match &o.only {
+            Some(c) => vec!["--only", c],
+            None => Vec::new(),
+        };
         let mut rows: Vec<Row> = Vec::new();
         for (bi, &budget) in budgets.iter().enumerate() {
             for repeat in 0..o.repeats {
@@ -392,7 +434,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
                             seed,
                             size: o.size,
                             components: false,
-                            extra_args: &[],
+                            extra_args: &only_args,
                         }
                         .run()?
                     };
@@ -400,7 +442,9 @@ pub fn main(root: &Path, args: &[String]) -> Result<()> {
                     let rel_mse = metrics::rel_mse(&beauty, &reference.beauty)?;
                     let rmse = metrics::rmse(&beauty, &reference.beauty)?;
                     let mut components = Vec::new();
-                    for (lname, layer) in &layers {
+                    // Restricted renders' other layers are black by request: not scored.
+                    let scored = |l: &str| o.only.as_ref().is_none_or(|c| c.split(',').any(|c| c == l));
+                    for (lname, layer) in layers.iter().filter(|(l, _)| scored(l)) {
                         if let Some((_, r)) = reference.layers.iter().find(|(n, _)| n == lname) {
                             components.push((lname.clone(), metrics::rel_mse(layer, r)?, metrics::rmse(layer, r)?));
                         }

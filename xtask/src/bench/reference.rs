@@ -58,20 +58,26 @@ pub struct RefSettings {
     pub goal: f64,
     /// The most wall seconds all rounds of all estimators may take together.
     pub max_seconds: f64,
+    /// Components the renders are restricted to (`--only`), for a reference of those alone:
+    /// each then gets the whole time, so its own error is far below a whole-image
+    /// reference's layer of it.
+    pub only: Option<String>,
 }
 
 impl RefSettings {
     fn describe(&self) -> String {
+        // `only` is appended only when set, so whole-image references keep their keys.
         format!(
             "{} --components parts={PARTS} size={} seconds_per_half={} seed_base={} renderer={} \
-             many-light direct samples={MANY_LIGHT_DIRECT_SAMPLES} goal={} max_seconds={}",
+             many-light direct samples={MANY_LIGHT_DIRECT_SAMPLES} goal={} max_seconds={}{}",
             self.methods.join("+"),
             self.size,
             self.seconds_per_half,
             self.seed_base,
             self.renderer,
             self.goal,
-            self.max_seconds
+            self.max_seconds,
+            self.only.as_ref().map(|c| format!(" only={c}")).unwrap_or_default()
         )
     }
 
@@ -267,11 +273,13 @@ fn estimator(
     let mut round_metas: Vec<Value> = meta["rounds"].as_array().cloned().unwrap_or_default();
     round_metas.truncate(on_disk);
     let direct_samples = MANY_LIGHT_DIRECT_SAMPLES.to_string();
-    let extra_args: &[&str] = if method == "pt" {
-        &[]
-    } else {
-        &["--direct-samples", &direct_samples]
-    };
+    let mut extra_args: Vec<&str> = Vec::new();
+    if method != "pt" {
+        extra_args.extend(["--direct-samples", &direct_samples]);
+    }
+    if let Some(only) = &settings.only {
+        extra_args.extend(["--only", only]);
+    }
     for round in on_disk..rounds {
         // A round after the first lasts as long as the earlier ones together: the time doubles.
         let seconds = (settings.seconds_of(round + 1) - settings.seconds_of(round)) / PARTS as f64;
@@ -295,7 +303,7 @@ fn estimator(
                 seed,
                 size: settings.size,
                 components: true,
-                extra_args,
+                extra_args: &extra_args,
             }
             .run()?;
             parts.push(json!({"spp": t.passes, "wall_seconds": t.wall, "render_seconds": t.render, "seed": seed}));
@@ -676,6 +684,7 @@ mod tests {
             renderer: "abc".into(),
             goal: 0.0,
             max_seconds: 40.0,
+            only: None,
         }
     }
 
@@ -722,6 +731,16 @@ mod tests {
         )
         .unwrap();
         assert_ne!(k2, k5);
+        // A reference of some components alone is another reference; a whole-image one's key
+        // does not mention the restriction (so the keys of earlier runs still hold).
+        let only = |c: &str| RefSettings {
+            only: Some(c.into()),
+            ..settings()
+        };
+        let k6 = cache_key(&scene, &only("Lmm")).unwrap();
+        assert_ne!(k2, k6);
+        assert_ne!(k6, cache_key(&scene, &only("Lmm,Lms")).unwrap());
+        assert!(!settings().describe().contains("only"));
         // A cache entry written under the old key is not found for the new one.
         let cache = dir.path().join("cache");
         let entry = entry_dir(&cache, &scene, &k2);
