@@ -641,16 +641,23 @@ fn a_sphere_larger_than_the_scene_still_gives_light() {
     assert!(a.max <= bound, "Lsm {} above {bound}", a.max);
 }
 
-/// The planar patches the walls are judged by (`patches::Patches`): a room's six walls are patches
-/// of two triangles with no open edge (every edge a concave corner); a block in it has six
-/// patches of two whose four edges are all open (convex folds), none a plate; a lone quad is a
-/// plate with four open edges; a ball's faces (quads of two triangles, triangles at the poles)
-/// are patches whose every edge is open; an invisible medium boundary has none. Made to fail by treating every shared
-/// edge as open (the room's walls then have four) and by calling every patch a plate.
+/// The planar patches the walls are judged by (`patches::Patches`), whose open edges depend on
+/// the side they are seen from: a room's six walls (wound inward) are patches of two triangles
+/// with no edge open from inside (every edge a concave corner) and four from outside; a block
+/// in it has six patches of two whose four edges are all open from outside (convex folds) and
+/// none from inside, none a plate, and the same block wound inside out is the same seen from
+/// the same places; a lone quad is a plate with four open edges from both sides, also when
+/// its two triangles are wound against each other (one patch all the same); a ball's faces
+/// (quads of two triangles, triangles at the poles) are patches whose every edge is open from
+/// outside; an invisible medium boundary has none. Made to fail by treating every shared edge
+/// as open (the room's walls then have four from inside), by judging concavity by the winding
+/// alone (the inside-out block's faces then have none from outside), by joining only
+/// triangles wound alike (the mixed quad is then two patches), and by calling every patch a
+/// plate.
 #[test]
 fn patches_follow_the_surfaces() {
     use beamlight_testkit::gltf_writer::shapes;
-    use beamlight_trace::patches::Patches;
+    use beamlight_trace::patches::{BACK, FRONT, Patches};
     let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 4, 4);
     let wall = add_material(&mut s, lambert("wall", 0.5));
     add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
@@ -664,18 +671,30 @@ fn patches_follow_the_surfaces() {
     let block = room.end..s.triangles.len();
     add_mesh(
         &mut s,
+        shapes::cuboid(Vec3::new(0.1, -0.9, -0.9), Vec3::new(0.4, -0.6, -0.6), false),
+        wall,
+        None,
+    );
+    let inside_out = block.end..s.triangles.len();
+    add_mesh(
+        &mut s,
         shapes::quad(Vec3::new(0.2, 0.9, 0.2), Vec3::X * 0.2, Vec3::Z * 0.2),
         wall,
         None,
     );
-    let plate = block.end..s.triangles.len();
+    let plate = inside_out.end..s.triangles.len();
+    // A quad whose second triangle is wound the other way.
+    let (p, mut idx) = shapes::quad(Vec3::new(-0.8, 0.9, 0.2), Vec3::X * 0.2, Vec3::Z * 0.2);
+    idx.swap(4, 5);
+    add_mesh(&mut s, (p, idx), wall, None);
+    let mixed = plate.end..s.triangles.len();
     add_mesh(
         &mut s,
         shapes::uv_sphere(Vec3::new(0.5, -0.5, 0.5), 0.2, 8, 16),
         wall,
         None,
     );
-    let ball = plate.end..s.triangles.len();
+    let ball = mixed.end..s.triangles.len();
     let boundary = add_material(&mut s, material("boundary", None, Rgb::ZERO, false));
     add_mesh(
         &mut s,
@@ -685,38 +704,99 @@ fn patches_follow_the_surfaces() {
     );
     let invisible = ball.end..s.triangles.len();
     let p = Patches::build(&s);
-    // Open edges of triangle t's patch (a patch of one: the bits of its mask).
-    let open = |t: usize| match p.spans[t] {
-        [_, u32::MAX] => 0,
-        [mask, 0] => mask.count_ones(),
-        [_, count] => count,
+    // Per triangle: its patch's open edges and whether it is a plate, from the front and from
+    // the back of the triangle itself.
+    let seen = |t: usize| {
+        let t32 = t as u32;
+        [
+            (p.open_edges(t32, FRONT), p.is_plate(t32, FRONT)),
+            (p.open_edges(t32, BACK), p.is_plate(t32, BACK)),
+        ]
     };
     for t in room {
-        assert_eq!((open(t), p.plate[t]), (0, false), "room triangle {t}: {:?}", p.spans[t]);
+        assert_eq!(seen(t), [(0, false), (4, false)], "room triangle {t}: {:?}", p.spans[t]);
     }
     for t in block {
         assert_eq!(
-            (open(t), p.plate[t]),
-            (4, false),
+            seen(t),
+            [(4, false), (0, false)],
             "block triangle {t}: {:?}",
             p.spans[t]
         );
     }
-    for t in plate {
-        assert_eq!((open(t), p.plate[t]), (4, true), "plate triangle {t}: {:?}", p.spans[t]);
+    // Wound inside out, its front faces the block's inside.
+    for t in inside_out {
+        assert_eq!(
+            seen(t),
+            [(0, false), (4, false)],
+            "inside-out block triangle {t}: {:?}",
+            p.spans[t]
+        );
     }
+    for t in plate {
+        assert_eq!(seen(t), [(4, true), (4, true)], "plate triangle {t}: {:?}", p.spans[t]);
+    }
+    for t in mixed.clone() {
+        assert_eq!(
+            seen(t),
+            [(4, true), (4, true)],
+            "mixed quad triangle {t}: {:?}",
+            p.spans[t]
+        );
+    }
+    assert_eq!(
+        p.spans[mixed.start],
+        p.spans[mixed.start + 1],
+        "the mixed quad is one patch"
+    );
     // A UV sphere's quads are planar trapezoids (two triangles); its poles are triangles.
     for t in ball {
         let alone = p.spans[t][1] == 0;
-        assert_eq!(
-            (open(t), p.plate[t]),
-            (if alone { 3 } else { 4 }, false),
-            "ball triangle {t}"
-        );
+        let n = if alone { 3 } else { 4 };
+        assert_eq!(seen(t), [(n, false), (0, false)], "ball triangle {t}");
     }
     for t in invisible {
-        assert_eq!((p.spans[t], p.plate[t]), ([0, 0], false), "invisible triangle {t}");
+        assert_eq!((p.spans[t], p.plate[t]), ([0, 0], 0), "invisible triangle {t}");
     }
+}
+
+/// The walls next to a VSL centre do not depend on how the surfaces are wound: in a room whose
+/// normals face out (as a box modelled from outside, or a double-sided mesh, may be) a corner's
+/// three walls are found, and a block wound inside out in it cuts the blur in front of its face
+/// but not next to its convex edge, as in `probes_find_the_walls_next_to_a_centre`; one wall
+/// has a triangle wound back. Made to fail by judging concavity by the winding alone (the
+/// corner then has no walls: each wall's edges were convex folds) and by reading a patch's
+/// open edges from the side of the triangle hit rather than the patch's (the wall with the
+/// flipped triangle is then lost).
+#[test]
+fn walls_do_not_depend_on_winding() {
+    use beamlight_testkit::gltf_writer::shapes;
+    use beamlight_trace::vbl::Walls;
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 4, 4);
+    let wall = add_material(&mut s, lambert("wall", 0.5));
+    // The room's x = −1 wall has one triangle wound back (a patch of two wound both ways).
+    let (p, mut idx) = shapes::cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), true);
+    idx.swap(1, 2);
+    add_mesh(&mut s, (p, idx), wall, None);
+    add_mesh(
+        &mut s,
+        shapes::cuboid(Vec3::new(-0.2, 0.5, -0.2), Vec3::new(0.2, 0.9, 0.2), false),
+        wall,
+        None,
+    );
+    let ts = TraceScene::new(s);
+    let normals = |w: &Walls| -> Vec<Vec3> { w.planes().iter().map(|p| p.normal.round()).collect() };
+    // Its probe along −x meets the wall's flipped triangle (y > z there).
+    let c = Vec3::new(-0.9, -0.8, -0.85);
+    let w = Walls::around(&ts, c, c, 0.2, None);
+    let mut got = normals(&w);
+    got.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap());
+    assert_eq!(got, vec![Vec3::Z, Vec3::Y, Vec3::X], "corner walls: {w:?}");
+    let c = Vec3::new(0.0, 0.7, -0.3);
+    assert_eq!(normals(&Walls::around(&ts, c, c, 0.06, None)), vec![-Vec3::Z]);
+    let c = Vec3::new(0.17, 0.7, -0.3);
+    let w = Walls::around(&ts, c, c, 0.06, None);
+    assert!(w.planes().is_empty(), "next to the block's edge: {w:?}");
 }
 
 /// The probes that find the walls next to a VSL centre (`vbl::Walls::around`), in a room

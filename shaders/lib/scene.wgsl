@@ -26,22 +26,24 @@ struct TriangleInfo {
     // Position of the triangle in `triangles`.
     leaf_slot: u32,
     // TRI_NULL_INTERFACE when shadow rays pass through it (a medium boundary without a BSDF);
-    // TRI_PLATE when its planar patch is a plate.
+    // TRI_PLATE_FRONT / TRI_PLATE_BACK when its planar patch is a plate seen from its front /
+    // back; TRI_PATCH_FLIPPED when its front is its patch's back.
     flags: u32,
     // Media on the two sides, NO_MEDIUM for vacuum (meaningful only for interfaces).
     inside: u32,
     outside: u32,
     // Its planar patch (`patches::Patches::spans`): the span of the patch's open edges in
-    // `patch_edges` (start, count); for a patch of one, the mask of its open edges (mask, 0);
-    // (0, PATCH_CLOSED) for a patch with none.
+    // `patch_edges` (start, count); for a patch of one, the masks of its edges open from its
+    // front (bits 0-2) and back (bits 3-5) (mask, 0); (0, PATCH_CLOSED) for a patch with none.
     patch_start: u32,
     patch_count: u32,
 }
 
-// An open edge of a planar patch: where the surface folds away or ends.
+// An open edge of a planar patch: where the surface folds away or ends, seen from `sides` of
+// the patch (SIDE_FRONT | SIDE_BACK).
 struct PatchEdge {
     a: vec3<f32>,
-    _pad0: u32,
+    sides: u32,
     b: vec3<f32>,
     _pad1: u32,
 }
@@ -49,8 +51,14 @@ struct PatchEdge {
 const PATCH_CLOSED: u32 = 0xffffffffu;
 
 const TRI_NULL_INTERFACE: u32 = 1u;
-// Its planar patch is a plate: a surface whose open edges all end it (`patches::Patches::plate`).
-const TRI_PLATE: u32 = 2u;
+// Its planar patch is a plate seen from its front / back: a surface whose edges open from that
+// side all end it (`patches::Patches::plate`); its front is its patch's back (`flipped`).
+const TRI_PLATE_FRONT: u32 = 2u;
+const TRI_PLATE_BACK: u32 = 4u;
+const TRI_PATCH_FLIPPED: u32 = 8u;
+// A triangle's sides (`patches::FRONT`, `BACK`).
+const SIDE_FRONT: u32 = 1u;
+const SIDE_BACK: u32 = 2u;
 const NO_MEDIUM: u32 = 0xffffffffu;
 
 // A medium. Homogeneous when `grid_res.x` = 0; otherwise a density grid of `grid_res` cells

@@ -50,7 +50,10 @@ fn probed(centre: vec3<f32>, r: f32, k: u32, hit: Hit) -> Probed {
     let d = probe_axis(k);
     let t = scene_triangle(hit.tri);
     let ng = normalize_or_zero(cross(t.p1 - t.p0, t.p2 - t.p0));
-    let normal = select(ng, -ng, dot(ng, d) > 0.0);
+    // The side of the surface the probe comes from, which decides its open edges.
+    let back = dot(ng, d) > 0.0;
+    let normal = select(ng, -ng, back);
+    let side = select(SIDE_FRONT, SIDE_BACK, back);
     let point = centre + d * hit.t;
     let height = dot(centre - point, normal);
     if -dot(d, normal) < HEAD_ON || !(height <= reach) {
@@ -59,7 +62,8 @@ fn probed(centre: vec3<f32>, r: f32, k: u32, hit: Hit) -> Probed {
     // The plane within 2R of the centre must lie inside the triangle's planar patch.
     let foot = centre - normal * height;
     let need = sqrt(max(reach * reach - height * height, 0.0)) + distance(point, foot);
-    out.kind = select(PROBED_PAST, PROBED_WALL, patch_covers(hit.tri, t, point, need));
+    let plate = (triangle_info[hit.tri].flags & select(TRI_PLATE_FRONT, TRI_PLATE_BACK, back)) != 0u;
+    out.kind = select(select(PROBED_NONE, PROBED_PAST, plate), PROBED_WALL, patch_covers(hit.tri, t, side, point, need));
     out.plane = Plane(point, 0u, normal, 0u);
     return out;
 }
@@ -89,7 +93,7 @@ fn walls_around(centre: vec3<f32>, r: f32) -> Walls {
             continue;
         }
         found[k] = probed(centre, r, k, hit);
-        if found[k].kind == PROBED_PAST && (triangle_info[hit.tri].flags & TRI_PLATE) != 0u {
+        if found[k].kind == PROBED_PAST {
             beyond[k] = hit.t;
             again = true;
         }
@@ -127,25 +131,29 @@ fn walls_around(centre: vec3<f32>, r: f32) -> Walls {
     return walls;
 }
 
-// `Patches::covers`: whether the planar patch of triangle `id` (`t`) covers the disc of radius
-// `need` around `p`, a point of it: no open edge of the patch comes closer.
-fn patch_covers(id: u32, t: Triangle, p: vec3<f32>, need: f32) -> bool {
+// `Patches::covers`: whether the planar patch of triangle `id` (`t`), seen from its `side`,
+// covers the disc of radius `need` around `p`, a point of it: no edge of the patch open from
+// that side comes closer.
+fn patch_covers(id: u32, t: Triangle, side: u32, p: vec3<f32>, need: f32) -> bool {
     let info = triangle_info[id];
     if info.patch_count == PATCH_CLOSED {
         return true;
     }
     if info.patch_count == 0u {
+        let mask = select(info.patch_start >> 3u, info.patch_start, side == SIDE_FRONT);
         let v = array<vec3<f32>, 3>(t.p0, t.p1, t.p2);
         for (var k = 0u; k < 3u; k++) {
-            if (info.patch_start & (1u << k)) != 0u && segment_distance(p, v[k], v[(k + 1u) % 3u]) < need {
+            if (mask & (1u << k)) != 0u && segment_distance(p, v[k], v[(k + 1u) % 3u]) < need {
                 return false;
             }
         }
         return true;
     }
+    // The patch's sides are its first triangle's.
+    let patch_side = select(side, side ^ (SIDE_FRONT | SIDE_BACK), (info.flags & TRI_PATCH_FLIPPED) != 0u);
     for (var i = 0u; i < info.patch_count; i++) {
         let e = patch_edges[info.patch_start + i];
-        if segment_distance(p, e.a, e.b) < need {
+        if (e.sides & patch_side) != 0u && segment_distance(p, e.a, e.b) < need {
             return false;
         }
     }

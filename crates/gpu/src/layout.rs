@@ -41,7 +41,8 @@ pub struct TriangleInfo {
     pub inside: u32,
     pub outside: u32,
     /// The triangle's planar patch, `patches::Patches::spans`: its open edges in the scene's
-    /// `patch_edges` (start, count), or for a patch of one the mask of its open edges (mask, 0).
+    /// `patch_edges` (start, count), or for a patch of one the masks of its edges open from
+    /// its front (bits 0–2) and back (bits 3–5) (mask, 0).
     pub patch_start: u32,
     pub patch_count: u32,
 }
@@ -51,15 +52,19 @@ pub struct TriangleInfo {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PatchEdge {
     pub a: [f32; 3],
-    pub _pad0: u32,
+    /// The sides of the patch it is open from (`patches::OpenEdge::sides`: 1 front, 2 back).
+    pub sides: u32,
     pub b: [f32; 3],
     pub _pad1: u32,
 }
 
 /// `TriangleInfo::flags`: a medium boundary without a BSDF, which shadow rays pass through.
 pub const TRI_NULL_INTERFACE: u32 = 1;
-/// `TriangleInfo::flags`: its planar patch is a plate (`patches::Patches::plate`).
-pub const TRI_PLATE: u32 = 2;
+/// `TriangleInfo::flags`: its planar patch is a plate seen from its front, from its back
+/// (`patches::Patches::plate`), and its front is its patch's back (`Patches::flipped`).
+pub const TRI_PLATE_FRONT: u32 = 2;
+pub const TRI_PLATE_BACK: u32 = 4;
+pub const TRI_PATCH_FLIPPED: u32 = 8;
 /// A medium index meaning vacuum (the CPU's `camera_paths::NO_MEDIUM`).
 pub const NO_MEDIUM: u32 = u32::MAX;
 

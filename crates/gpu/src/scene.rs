@@ -10,10 +10,13 @@
 use crate::{
     Gpu, GpuError,
     compute::{self, Slot},
-    layout::{self, BvhNode, NO_MEDIUM, PatchEdge, SceneInfo, TRI_NULL_INTERFACE, TRI_PLATE, TriangleInfo},
+    layout::{
+        self, BvhNode, NO_MEDIUM, PatchEdge, SceneInfo, TRI_NULL_INTERFACE, TRI_PATCH_FLIPPED, TRI_PLATE_BACK,
+        TRI_PLATE_FRONT, TriangleInfo,
+    },
 };
 use beamlight_scene::Scene;
-use beamlight_trace::patches::Patches;
+use beamlight_trace::patches::{BACK, FRONT, Patches};
 use obvhs::{BvhBuildParams, bvh2::Bvh2};
 
 /// The flattened BVH2 and leaf-ordered triangles, before upload. `nodes` are in depth-first
@@ -145,8 +148,10 @@ impl GpuScene {
             .triangles
             .iter()
             .zip(&bvh.leaf_slot)
-            .zip(patches.spans.iter().zip(&patches.plate))
-            .map(|((t, &leaf_slot), (&[patch_start, patch_count], &plate))| {
+            .enumerate()
+            .map(|(i, (t, &leaf_slot))| {
+                let [patch_start, patch_count] = patches.spans[i];
+                let plate = patches.plate[i];
                 let null = scene.materials[t.material as usize].bsdf.is_none();
                 has_null_interfaces |= null;
                 let (inside, outside) = t.interface.map_or((NO_MEDIUM, NO_MEDIUM), |i| {
@@ -154,7 +159,10 @@ impl GpuScene {
                 });
                 TriangleInfo {
                     leaf_slot,
-                    flags: if null { TRI_NULL_INTERFACE } else { 0 } | if plate { TRI_PLATE } else { 0 },
+                    flags: if null { TRI_NULL_INTERFACE } else { 0 }
+                        | if plate & FRONT != 0 { TRI_PLATE_FRONT } else { 0 }
+                        | if plate & BACK != 0 { TRI_PLATE_BACK } else { 0 }
+                        | if patches.flipped[i] { TRI_PATCH_FLIPPED } else { 0 },
                     inside,
                     outside,
                     patch_start,
@@ -189,9 +197,10 @@ impl GpuScene {
         let edges: Vec<PatchEdge> = patches
             .edges
             .iter()
-            .map(|&[a, b]| PatchEdge {
-                a: a.into(),
-                b: b.into(),
+            .map(|e| PatchEdge {
+                a: e.ends[0].into(),
+                sides: e.sides as u32,
+                b: e.ends[1].into(),
                 ..Default::default()
             })
             .collect();

@@ -56,7 +56,7 @@ fn scene_structs_match() {
         TriangleInfo,
         [leaf_slot, flags, inside, outside, patch_start, patch_count]
     );
-    check!(w, PatchEdge, [a, _pad0, b, _pad1]);
+    check!(w, PatchEdge, [a, sides, b, _pad1]);
     check!(
         w,
         Medium,

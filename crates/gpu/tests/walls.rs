@@ -3,7 +3,11 @@
 //! cut its blur, so a twin that found other walls would change `Lmm` and `Lsm` on the GPU.
 //!
 //! The scene: a room with an opaque block, a tessellated ball (oblique hits, planes rejected by
-//! the head-on test) and an invisible medium boundary (passed over). Centres are drawn over
+//! the head-on test), a lamp's plate under the ceiling (looked past) and an invisible medium
+//! boundary (passed over). The room's normals face out (but for one triangle) and the plate's
+//! two triangles are wound against each other, so that open edges are judged from the side a
+//! probe comes from (the room's walls from their back, the block's faces from their front) and
+//! through a patch's flipped triangle. Centres are drawn over
 //! the room, half of them within 0.05 of a surface of the block, where several walls meet.
 //! Every query must find the same number of walls with the same normals (to 1e-5) and points
 //! (to 1e-4 of the room); the probes' hit distances may differ by rounding, the tests on them
@@ -18,7 +22,7 @@ use beamlight_gpu::{
 use beamlight_scene::{Rgb, Scene, rng::Sampler, scene::MediumInterface};
 use beamlight_testkit::{
     gltf_writer::shapes,
-    scenes::{add_box_inward, add_material, add_mesh, add_quad, emitter, empty_scene, homogeneous, lambert, material},
+    scenes::{add_material, add_mesh, emitter, empty_scene, homogeneous, lambert, material},
 };
 use beamlight_trace::{TraceScene, vbl};
 use bytemuck::{Pod, Zeroable};
@@ -47,16 +51,20 @@ const BLOCK_HI: Vec3 = Vec3::new(0.1, -0.4, 0.0);
 fn scene() -> Scene {
     let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 8, 8);
     let wall = add_material(&mut s, lambert("wall", 0.5));
-    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    // The room wound inside out, with one triangle of its x = −1 wall (a patch of two) wound
+    // back: that patch's open edges are judged through its flipped triangle.
+    let (p, mut idx) = shapes::cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), true);
+    idx.swap(1, 2);
+    add_mesh(&mut s, (p, idx), wall, None);
     add_mesh(&mut s, shapes::cuboid(BLOCK_LO, BLOCK_HI, true), wall, None);
     let light = add_material(&mut s, emitter("light", 10.0));
-    add_quad(
-        &mut s,
+    let (p, mut idx) = shapes::quad(
         Vec3::new(-0.3, 0.99, -0.3),
-        Vec3::new(0.6, 0.0, 0.0),
         Vec3::new(0.0, 0.0, 0.6),
-        light,
+        Vec3::new(0.6, 0.0, 0.0),
     );
+    idx.swap(4, 5);
+    add_mesh(&mut s, (p, idx), light, None);
     add_mesh(
         &mut s,
         shapes::uv_sphere(Vec3::new(0.5, 0.3, -0.2), 0.3, 12, 24),

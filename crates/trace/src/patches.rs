@@ -6,31 +6,50 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 /// The planar patches of a scene's surfaces: triangles joined across shared edges (the same
-/// vertex positions, bit for bit) where both lie in one plane facing the same way. What ends a
-/// patch's plane as a model of the surface are its *open* edges: those where the surface folds
-/// away from the free side (a convex edge, such as a box's) or simply ends. An edge where
-/// another surface rises on the free side (a room's corner) ends nothing: the space beyond it
-/// is not free, and that surface is a wall of its own. Medium boundaries without a BSDF are
-/// never walls and get no patch.
+/// vertex positions, bit for bit) where both lie in one plane, whichever way each is wound.
+/// What ends a patch's plane as a model of the surface are its *open* edges, and which edges
+/// those are depends on the side it is seen from: an edge where another surface rises on the
+/// side of the viewer (a room's corner, seen from inside) ends nothing, for the space beyond
+/// it is not free and that surface is a wall of its own; an edge where the surface folds away
+/// from the viewer (a box's edge, seen from outside) or simply ends (a rim) is open. So no
+/// winding convention is assumed: a room whose normals face out has the same walls inside it
+/// as one whose normals face in. Medium boundaries without a BSDF are never walls and get no
+/// patch.
 #[derive(Clone, Debug, Default)]
 pub struct Patches {
     /// Per scene triangle: for a patch of several triangles, the span of its open edges in
     /// `edges` (start, count > 0); for a triangle that is a patch alone, (mask, 0), bit k of
-    /// the mask set when its edge from vertex k to vertex k + 1 is open. A patch of several
-    /// triangles without open edges has the span (0, u32::MAX): it covers everything.
+    /// the mask set when its edge from vertex k to vertex k + 1 is open from its front, bit
+    /// 3 + k when from its back. A patch of several triangles without open edges has the span
+    /// (0, u32::MAX): it covers everything.
     pub spans: Vec<[u32; 2]>,
     /// The open edges of the patches of several triangles.
-    pub edges: Vec<[Vec3; 2]>,
-    /// Per scene triangle: whether its patch is a plate, a surface whose open edges all end it
-    /// (no other surface meets them): a lamp's quad, a sheet of paper. A probe that meets a
-    /// plate too small to be a wall goes on past it; past a solid's face it would enter the
-    /// solid.
-    pub plate: Vec<bool>,
+    pub edges: Vec<OpenEdge>,
+    /// Per scene triangle: whether its front is its patch's back (the patch's sides are those
+    /// of its first triangle, and [`OpenEdge::sides`] are the patch's).
+    pub flipped: Vec<bool>,
+    /// Per scene triangle: the sides ([`FRONT`], [`BACK`], its own) from which its patch is a
+    /// plate, a surface whose edges open from that side all end it (no other surface meets
+    /// them): a lamp's quad, a sheet of paper. A probe that meets a plate too small to be a
+    /// wall goes on past it; past a solid's face it would enter the solid.
+    pub plate: Vec<u8>,
+}
+
+/// A triangle's side: its front (the side its winding's normal points to) and its back.
+pub const FRONT: u8 = 1;
+pub const BACK: u8 = 2;
+
+/// An open edge of a patch of several triangles, and the sides of the patch ([`FRONT`] |
+/// [`BACK`]) from which it is open.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OpenEdge {
+    pub ends: [Vec3; 2],
+    pub sides: u8,
 }
 
 /// How far (relative to the triangle's longest edge) a vertex may lie off a neighbour's plane,
-/// and how nearly parallel their normals must be, for the two to be one patch: rounding of
-/// coordinates written as floats, no more.
+/// and how nearly parallel (or opposite) their normals must be, for the two to be one patch:
+/// rounding of coordinates written as floats, no more.
 const COPLANAR_OFFSET: f32 = 1e-5;
 const COPLANAR_NORMALS: f32 = 1.0 - 1e-6;
 /// An edge of a triangle: its end points' bits (in order), the triangle and which edge.
@@ -38,6 +57,11 @@ type Side = (([u32; 3], [u32; 3]), u32, u8);
 
 /// [`Patches::spans`]' count for a patch with no open edge.
 const CLOSED: u32 = u32::MAX;
+
+/// The other side.
+fn opposite(side: u8) -> u8 {
+    side ^ (FRONT | BACK)
+}
 
 impl Patches {
     pub fn build(scene: &Scene) -> Self {
@@ -52,15 +76,17 @@ impl Patches {
             .iter()
             .map(|t| (0..3).map(|k| t.p[k].distance(t.p[(k + 1) % 3])).fold(0.0, f32::max))
             .collect();
-        // The vertex of `b` (sharing an edge with `a`) farthest off `a`'s plane, signed, in
-        // `a`'s size.
+        // The vertex of `b` (sharing an edge with `a`) farthest off `a`'s plane, signed (on
+        // `a`'s front positive), in `a`'s size.
         let height = |a: usize, b: usize| {
             let h = tris[b].p.iter().map(|&p| (p - tris[a].p[0]).dot(normal[a]));
             let (lo, hi) = h.fold((0.0f32, 0.0f32), |(lo, hi), x| (lo.min(x), hi.max(x)));
             (if hi > -lo { hi } else { lo }) / size[a]
         };
-        let coplanar =
-            |a: usize, b: usize| normal[a].dot(normal[b]) >= COPLANAR_NORMALS && height(a, b).abs() <= COPLANAR_OFFSET;
+        // Wound either way: a mesh whose triangles disagree is still one surface.
+        let coplanar = |a: usize, b: usize| {
+            normal[a].dot(normal[b]).abs() >= COPLANAR_NORMALS && height(a, b).abs() <= COPLANAR_OFFSET
+        };
         // Every edge of every wall triangle, keyed by its end points' bits, sorted so that the
         // triangles sharing an edge are neighbours: (key, triangle, edge).
         let key = |p: Vec3| p.to_array().map(f32::to_bits);
@@ -93,26 +119,35 @@ impl Patches {
             }
         }
         let roots: Vec<u32> = (0..n as u32).map(|i| root(&mut parent, i)).collect();
-        // Per triangle, bit k: its edge k is open, i.e. no triangle of its own patch shares
-        // it and no other surface rises from it on its free side (a concave fold); bit 3 + k:
-        // that open edge is a rim, met by no other surface at all.
-        let mut edge_bits = vec![0u8; n];
+        // Per triangle, bit k: its edge k is open from its front, i.e. no triangle of its own
+        // patch shares it and no other surface rises from it on its front (a concave fold
+        // there); bit 3 + k: the same from its back. And bit k of `rim`: that edge is met by
+        // no other surface at all (open from both sides).
+        let mut open = vec![0u8; n];
+        let mut rim = vec![0u8; n];
         for edge in &shared {
             for &(_, t, k) in edge.iter() {
                 let (t, r) = (t as usize, roots[t as usize]);
-                let closed = edge.iter().any(|&(_, o, _)| {
-                    let o = o as usize;
-                    o != t && (roots[o] == r || height(t, o) > COPLANAR_OFFSET)
-                });
-                if !closed {
-                    edge_bits[t] |= 1 << k | (((edge.len() == 1) as u8) << (3 + k));
+                let others = || edge.iter().map(|&(_, o, _)| o as usize).filter(|&o| o != t);
+                if others().any(|o| roots[o] == r) {
+                    continue;
+                }
+                if !others().any(|o| height(t, o) > COPLANAR_OFFSET) {
+                    open[t] |= 1 << k;
+                }
+                if !others().any(|o| height(t, o) < -COPLANAR_OFFSET) {
+                    open[t] |= 1 << (3 + k);
+                }
+                if edge.len() == 1 {
+                    rim[t] |= 1 << k;
                 }
             }
         }
         let mut patches = Patches {
             spans: vec![[0, 0]; n],
             edges: Vec::new(),
-            plate: vec![false; n],
+            flipped: vec![false; n],
+            plate: vec![0; n],
         };
         // The patches, each a run of triangles sorted by root (then index: deterministic).
         let mut order: Vec<(u32, u32)> = (0..n as u32)
@@ -121,28 +156,49 @@ impl Patches {
             .collect();
         order.sort_unstable();
         for group in order.chunk_by(|x, y| x.0 == y.0) {
-            let opens: u32 = group
-                .iter()
-                .map(|&(_, t)| (edge_bits[t as usize] & 7).count_ones())
-                .sum();
-            let rims: u32 = group
-                .iter()
-                .map(|&(_, t)| (edge_bits[t as usize] >> 3).count_ones())
-                .sum();
+            let first = group[0].1 as usize;
+            // A triangle's open edges from the patch's front and back (its first triangle's).
+            let flipped = |t: usize| normal[t].dot(normal[first]) < 0.0;
+            let from = |t: usize, side: u8| {
+                let own = if flipped(t) { opposite(side) } else { side };
+                if own == FRONT { open[t] & 7 } else { open[t] >> 3 }
+            };
+            let count = |side: u8| -> u32 { group.iter().map(|&(_, t)| from(t as usize, side).count_ones()).sum() };
+            let rims: u32 = group.iter().map(|&(_, t)| rim[t as usize].count_ones()).sum();
+            // A plate from a side: edges open from there, every one a rim.
+            let plate = |side: u8| {
+                if count(side) > 0 && count(side) == rims {
+                    side
+                } else {
+                    0
+                }
+            };
+            let plate_sides = plate(FRONT) | plate(BACK);
             for &(_, t) in group {
-                patches.plate[t as usize] = opens > 0 && rims == opens;
+                let t = t as usize;
+                patches.flipped[t] = flipped(t);
+                patches.plate[t] = if flipped(t) {
+                    (plate_sides & FRONT) << 1 | (plate_sides & BACK) >> 1
+                } else {
+                    plate_sides
+                };
             }
             if let [(_, t)] = group {
-                patches.spans[*t as usize] = [(edge_bits[*t as usize] & 7) as u32, 0];
+                patches.spans[*t as usize] = [open[*t as usize] as u32, 0];
                 continue;
             }
             let start = patches.edges.len();
             for &(_, t) in group {
-                let p = tris[t as usize].p;
-                let bits = edge_bits[t as usize];
+                let t = t as usize;
+                let p = tris[t].p;
+                let (front, back) = (from(t, FRONT), from(t, BACK));
                 patches
                     .edges
-                    .extend((0..3).filter(|&k| bits & (1 << k) != 0).map(|k| [p[k], p[(k + 1) % 3]]));
+                    .extend((0..3).filter(|&k| (front | back) & (1 << k) != 0).map(|k| OpenEdge {
+                        ends: [p[k], p[(k + 1) % 3]],
+                        sides: if front & (1 << k) != 0 { FRONT } else { 0 }
+                            | if back & (1 << k) != 0 { BACK } else { 0 },
+                    }));
             }
             let count = patches.edges.len() - start;
             let span = if count == 0 {
@@ -157,21 +213,51 @@ impl Patches {
         patches
     }
 
-    /// Whether the patch of triangle `tri` covers the disc of radius `need` around `p`, a point
-    /// of it: no open edge of the patch comes closer.
-    pub fn covers(&self, scene: &Scene, tri: u32, p: Vec3, need: f32) -> bool {
-        let [start, count] = self.spans.get(tri as usize).copied().unwrap_or([0, 0]);
+    /// Whether the patch of triangle `tri`, seen from its `side` ([`FRONT`] or [`BACK`]),
+    /// covers the disc of radius `need` around `p`, a point of it: no edge of the patch open
+    /// from that side comes closer.
+    pub fn covers(&self, scene: &Scene, tri: u32, side: u8, p: Vec3, need: f32) -> bool {
         let clear = |[a, b]: [Vec3; 2]| segment_distance(p, a, b) >= need;
-        match count {
-            CLOSED => true,
-            0 => {
+        match self.spans.get(tri as usize).copied().unwrap_or([0, 0]) {
+            [_, CLOSED] => true,
+            [mask, 0] => {
                 let t = scene.triangles[tri as usize].p;
-                (0..3).all(|k| (start & (1 << k)) == 0 || clear([t[k], t[(k + 1) % 3]]))
+                let mask = if side == FRONT { mask } else { mask >> 3 };
+                (0..3).all(|k| (mask & (1 << k)) == 0 || clear([t[k], t[(k + 1) % 3]]))
             }
-            _ => self.edges[start as usize..(start + count) as usize]
-                .iter()
-                .all(|&e| clear(e)),
+            [start, count] => {
+                let side = if self.flipped[tri as usize] {
+                    opposite(side)
+                } else {
+                    side
+                };
+                self.edges[start as usize..(start + count) as usize]
+                    .iter()
+                    .all(|e| e.sides & side == 0 || clear(e.ends))
+            }
         }
+    }
+
+    /// How many edges of triangle `tri`'s patch are open from its `side`.
+    pub fn open_edges(&self, tri: u32, side: u8) -> usize {
+        match self.spans.get(tri as usize).copied().unwrap_or([0, 0]) {
+            [_, CLOSED] => 0,
+            [mask, 0] => (if side == FRONT { mask & 7 } else { mask >> 3 }).count_ones() as usize,
+            [start, count] => {
+                let side = if self.flipped[tri as usize] {
+                    opposite(side)
+                } else {
+                    side
+                };
+                let edges = &self.edges[start as usize..(start + count) as usize];
+                edges.iter().filter(|e| e.sides & side != 0).count()
+            }
+        }
+    }
+
+    /// Whether triangle `tri`'s patch, seen from its `side`, is a plate.
+    pub fn is_plate(&self, tri: u32, side: u8) -> bool {
+        self.plate.get(tri as usize).is_some_and(|&p| p & side != 0)
     }
 }
 

@@ -23,7 +23,9 @@
 //! finite face the space is free again. So a probe's surface counts only if its planar patch
 //! ([`crate::patches::Patches`]: the triangles joined across shared edges in one plane) covers
 //! every point of its plane within 2R of the centre, i.e. no open edge of the patch lies that
-//! close to the probe's hit. Without this, next to the convex edges of a box every disc
+//! close to the probe's hit. Which edges are open depends on the side the probe comes from: a
+//! room's corner seen from inside ends nothing, a box's edge seen from outside does, however
+//! the surfaces are wound. Without this, next to the convex edges of a box every disc
 //! reaching past the edge was renormalised as if the face went on (light counted twice in
 //! front of the plane) and nothing was collected beside the box behind it: in the smoke box,
 //! whose plume rises past the tall block's edge, `Lmm` came out 2–4 % high along the plume
@@ -31,7 +33,11 @@
 //! are small patches with open edges all round, so it is a wall only once 2R fits inside one,
 //! where its plane is a fair model. A probe that meets a plate too small to be a wall (a
 //! lamp's quad under the ceiling) goes on to the next surface, once.
-use crate::{TraceScene, bvh::Hit};
+use crate::{
+    TraceScene,
+    bvh::Hit,
+    patches::{BACK, FRONT},
+};
 use glam::Vec3;
 
 /// The probes' directions, and the most walls a centre keeps (one per probe).
@@ -99,16 +105,14 @@ impl Walls {
                 Probed::Wall(plane) => plane,
                 // A plate too small to be a plane here (a lamp's quad under a ceiling): the
                 // probe goes on to the next surface, once.
-                Probed::Past if ts.patches.plate[hit.tri as usize] => {
-                    match ts.bvh.closest_hit_beyond(from, d, hit.t, reach / HEAD_ON) {
-                        Some(next) => match probed(ts, centre, from, d, r, sheet, &next) {
-                            Probed::Wall(plane) => plane,
-                            _ => continue,
-                        },
-                        None => continue,
-                    }
-                }
-                Probed::Past | Probed::None => continue,
+                Probed::Past => match ts.bvh.closest_hit_beyond(from, d, hit.t, reach / HEAD_ON) {
+                    Some(next) => match probed(ts, centre, from, d, r, sheet, &next) {
+                        Probed::Wall(plane) => plane,
+                        _ => continue,
+                    },
+                    None => continue,
+                },
+                Probed::None => continue,
             };
             // The same wall met by a second probe.
             let known = walls.planes().iter().any(|p| {
@@ -127,7 +131,7 @@ impl Walls {
 enum Probed {
     /// A wall: a plane within 2R, met head-on, which its surface covers within 2R.
     Wall(Plane),
-    /// A surface that is no wall only because it ends within 2R (beyond a plate, look on).
+    /// A plate that is no wall only because it ends within 2R: look past it.
     Past,
     /// Nothing: no wall along this probe.
     None,
@@ -141,7 +145,8 @@ fn probed(ts: &TraceScene, centre: Vec3, from: Vec3, d: Vec3, r: f32, sheet: Opt
         return Probed::None;
     }
     let ng = tri.cross().normalize_or_zero();
-    let normal = if ng.dot(d) > 0.0 { -ng } else { ng };
+    // The side of the surface the probe comes from, which decides its open edges.
+    let (normal, side) = if ng.dot(d) > 0.0 { (-ng, BACK) } else { (ng, FRONT) };
     if -d.dot(normal) < HEAD_ON || sheet.is_some_and(|n| normal.dot(n).abs() > 0.99) {
         return Probed::None;
     }
@@ -155,9 +160,11 @@ fn probed(ts: &TraceScene, centre: Vec3, from: Vec3, d: Vec3, r: f32, sheet: Opt
     // plus the foot's distance from the hit.
     let foot = centre - normal * height;
     let need = (reach * reach - height * height).max(0.0).sqrt() + point.distance(foot);
-    if ts.patches.covers(&ts.scene, hit.tri, point, need) {
+    if ts.patches.covers(&ts.scene, hit.tri, side, point, need) {
         Probed::Wall(Plane { point, normal })
-    } else {
+    } else if ts.patches.is_plate(hit.tri, side) {
         Probed::Past
+    } else {
+        Probed::None
     }
 }
