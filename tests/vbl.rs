@@ -799,6 +799,42 @@ fn walls_do_not_depend_on_winding() {
     assert!(w.planes().is_empty(), "next to the block's edge: {w:?}");
 }
 
+/// A VPL on the floor in front of a block standing on it (`vbl::Walls::around` with a sheet)
+/// takes the block's face as an infinite plane, in front of the face's middle and next to its
+/// side edge alike: surface VSLs keep the rule that was measured better for them
+/// (`Candidate::covered`: the Cornell box's floor at the blocks' feet), while a volume centre
+/// at the same place next to the side edge finds no wall there (the patch rule). Made to fail
+/// by applying the patch rule to VPLs (both VPL cases then lose the face).
+#[test]
+fn a_vpl_at_a_blocks_foot_takes_its_face_as_a_plane() {
+    use beamlight_testkit::gltf_writer::shapes;
+    use beamlight_trace::vbl::Walls;
+    let mut s = empty_scene(Vec3::new(0.0, 0.0, 0.9), Vec3::new(0.0, 0.0, -1.0), 60.0, 4, 4);
+    let wall = add_material(&mut s, lambert("wall", 0.5));
+    add_box_inward(&mut s, Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    add_mesh(
+        &mut s,
+        shapes::cuboid(Vec3::new(-0.3, -1.0, -0.6), Vec3::new(0.3, -0.4, 0.0), true),
+        wall,
+        None,
+    );
+    let ts = TraceScene::new(s);
+    let normals = |w: &Walls| -> Vec<Vec3> { w.planes().iter().map(|p| p.normal.round()).collect() };
+    // 0.05 in front of the face z = 0, at its middle and 0.05 from its side x = 0.3.
+    for x in [0.0, 0.25] {
+        let q = Vec3::new(x, -1.0, 0.05);
+        let from = q + Vec3::Y * 1e-4;
+        assert_eq!(
+            normals(&Walls::around(&ts, q, from, 0.1, Some(Vec3::Y))),
+            vec![Vec3::Z],
+            "VPL at x = {x}"
+        );
+    }
+    // A volume centre 0.05 from the side, above the floor's reach: the face ends within 2R.
+    let c = Vec3::new(0.25, -0.7, 0.05);
+    assert!(Walls::around(&ts, c, c, 0.1, None).planes().is_empty());
+}
+
 /// The probes that find the walls next to a VSL centre (`vbl::Walls::around`), in a room
 /// [−1, 1]³ with a ball of radius 0.3 at the origin, a solid block, a ramp tilted 45° and an
 /// invisible medium boundary (a box x ∈ [0.5, 0.9]): at a corner the three walls within 2R,
