@@ -94,9 +94,7 @@ impl Walls {
         if !(reach > 0.0 && reach.is_finite()) {
             return walls;
         }
-        // The surface each probe meets head-on within 2R.
-        let mut found: [Option<Candidate>; MAX_WALLS] = [None; MAX_WALLS];
-        for (k, d) in AXES.into_iter().enumerate() {
+        for d in AXES {
             if sheet.is_some_and(|n| d.dot(n).abs() > 0.5) {
                 continue;
             }
@@ -105,18 +103,23 @@ impl Walls {
             let Some(hit) = ts.bvh.closest_hit(from, d, reach / HEAD_ON).filter(|h| h.t > 1e-3 * r) else {
                 continue;
             };
-            found[k] = match candidate(ts, centre, from, d, r, sheet, &hit) {
+            let wall = match candidate(ts, centre, from, d, r, sheet, &hit) {
+                Some(c) if c.covered(ts, sheet) => c,
                 // A plate too small to be a plane here (a lamp's quad under a ceiling): the
                 // probe goes on to the next surface, once.
-                Some(c) if !c.covered(ts, sheet) && ts.patches.is_plate(c.tri, c.side) => ts
-                    .bvh
-                    .closest_hit_beyond(from, d, hit.t, reach / HEAD_ON)
-                    .and_then(|next| candidate(ts, centre, from, d, r, sheet, &next)),
-                c => c,
+                Some(c) if ts.patches.is_plate(c.tri, c.side) => {
+                    match ts
+                        .bvh
+                        .closest_hit_beyond(from, d, hit.t, reach / HEAD_ON)
+                        .and_then(|next| candidate(ts, centre, from, d, r, sheet, &next))
+                    {
+                        Some(c) if c.covered(ts, sheet) => c,
+                        _ => continue,
+                    }
+                }
+                _ => continue,
             };
-        }
-        for c in found.iter().flatten().filter(|c| c.covered(ts, sheet)) {
-            let plane = c.plane;
+            let plane = wall.plane;
             // The same wall met by a second probe.
             let known = walls.planes().iter().any(|p| {
                 p.normal.dot(plane.normal) > 0.999 && (plane.point - p.point).dot(plane.normal).abs() <= 1e-3 * r
