@@ -709,8 +709,8 @@ fn patches_follow_the_surfaces() {
     let seen = |t: usize| {
         let t32 = t as u32;
         [
-            (p.open_edges(t32, FRONT), p.is_plate(t32, FRONT)),
-            (p.open_edges(t32, BACK), p.is_plate(t32, BACK)),
+            (p.open_edges(&s, t32, FRONT).count(), p.is_plate(t32, FRONT)),
+            (p.open_edges(&s, t32, BACK).count(), p.is_plate(t32, BACK)),
         ]
     };
     for t in room {

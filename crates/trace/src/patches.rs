@@ -217,42 +217,36 @@ impl Patches {
     /// covers the disc of radius `need` around `p`, a point of it: no edge of the patch open
     /// from that side comes closer.
     pub fn covers(&self, scene: &Scene, tri: u32, side: u8, p: Vec3, need: f32) -> bool {
-        let clear = |[a, b]: [Vec3; 2]| segment_distance(p, a, b) >= need;
+        self.open_edges(scene, tri, side)
+            .all(|[a, b]| segment_distance(p, a, b) >= need)
+    }
+
+    /// The edges of triangle `tri`'s patch that are open from its `side`.
+    pub fn open_edges<'a>(&'a self, scene: &Scene, tri: u32, side: u8) -> impl Iterator<Item = [Vec3; 2]> + 'a {
+        let (mut alone, mut several) = (None, None);
         match self.spans.get(tri as usize).copied().unwrap_or([0, 0]) {
-            [_, CLOSED] => true,
+            [_, CLOSED] => {}
             [mask, 0] => {
                 let t = scene.triangles[tri as usize].p;
                 let mask = if side == FRONT { mask } else { mask >> 3 };
-                (0..3).all(|k| (mask & (1 << k)) == 0 || clear([t[k], t[(k + 1) % 3]]))
+                alone = Some(
+                    (0..3)
+                        .filter(move |k| mask & (1 << k) != 0)
+                        .map(move |k| [t[k], t[(k + 1) % 3]]),
+                );
             }
             [start, count] => {
-                let side = if self.flipped[tri as usize] {
-                    opposite(side)
-                } else {
-                    side
-                };
-                self.edges[start as usize..(start + count) as usize]
-                    .iter()
-                    .all(|e| e.sides & side == 0 || clear(e.ends))
-            }
-        }
-    }
-
-    /// How many edges of triangle `tri`'s patch are open from its `side`.
-    pub fn open_edges(&self, tri: u32, side: u8) -> usize {
-        match self.spans.get(tri as usize).copied().unwrap_or([0, 0]) {
-            [_, CLOSED] => 0,
-            [mask, 0] => (if side == FRONT { mask & 7 } else { mask >> 3 }).count_ones() as usize,
-            [start, count] => {
+                // The edges' sides are the patch's.
                 let side = if self.flipped[tri as usize] {
                     opposite(side)
                 } else {
                     side
                 };
                 let edges = &self.edges[start as usize..(start + count) as usize];
-                edges.iter().filter(|e| e.sides & side != 0).count()
+                several = Some(edges.iter().filter(move |e| e.sides & side != 0).map(|e| e.ends));
             }
         }
+        alone.into_iter().flatten().chain(several.into_iter().flatten())
     }
 
     /// Whether triangle `tri`'s patch, seen from its `side`, is a plate.
