@@ -102,7 +102,7 @@ fn main() {
         let masses = |rx: &Receiver| -> Vec<f64> {
             mix(leaves
                 .iter()
-                .map(|&n| beamlight_trace::light_tree::flat_importance(&tree.nodes[n], rx, r) as f64)
+                .map(|&n| tree.flat_importance(&tree.nodes[n], rx, r) as f64)
                 .collect())
         };
         let flat = masses(&flat_draw_receiver(&ts.scene, seg));
@@ -272,7 +272,7 @@ fn main() {
     {
         let rx = Receiver::along_segment(&ts.scene, seg);
         for n in tree.nodes.iter().filter(|n| n.is_leaf()) {
-            acc += beamlight_trace::light_tree::flat_importance(n, &rx, r);
+            acc += tree.flat_importance(n, &rx, r);
             count += 1;
         }
     }

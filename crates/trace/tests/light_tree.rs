@@ -5,7 +5,7 @@
 mod common;
 
 use beamlight_scene::rng::Sampler;
-use beamlight_trace::light_tree::{Emission, Gloss, LightTree, Receiver, TreeLight, flat_importance, importance};
+use beamlight_trace::light_tree::{Emission, Gloss, LightTree, Receiver, TreeLight, importance};
 use common::*;
 use glam::Vec3;
 
@@ -323,7 +323,7 @@ fn segment_importance_tracks_the_pair_integral() {
             index: diagonal << beamlight_trace::light_tree::DIAGONAL_SHIFT,
         }));
         let rx = Receiver::Segment { o, d, len, g };
-        let got = flat_importance(&tree.nodes[0], &rx, R) as f64;
+        let got = tree.flat_importance(&tree.nodes[0], &rx, R) as f64;
         let hg = |g: f64, cos: f64| (1.0 - g * g) / (1.0 + g * g - 2.0 * g * cos).powf(1.5);
         let n = 400;
         let fade = (1.0 - (-(sigma_t as f64) * l as f64).exp()) / sigma_t as f64;

@@ -572,8 +572,9 @@ fn point_leaf_importance(node: &LightTreeNode, p: Vec3, n: Vec3, gloss: &Gloss, 
 }
 
 /// A leaf's importance for a flat draw ([`super::LightTree::flat_masses`]): for a VBL leaf and
-/// a camera segment the pair integral itself (below), otherwise [`importance`].
-pub fn flat_importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
+/// a camera segment the pair integral itself (below), otherwise [`importance`]. `profile`:
+/// where along a VBL in a density grid its light scatters ([`super::Profile`]).
+pub fn flat_importance(node: &LightTreeNode, rx: &Receiver, r: f32, profile: Option<&super::Profile>) -> f32 {
     let r = r.max(1e-12);
     if let Receiver::Point { p, n, gloss } = *rx
         && node.is_leaf()
@@ -617,19 +618,31 @@ pub fn flat_importance(node: &LightTreeNode, rx: &Receiver, r: f32) -> f32 {
     let span = (1.0 + (p + q + p * q)).ln();
     let e = ((1.0 + p) / (1.0 + q)).sqrt();
     let mut value = 0.0;
+    // In a density grid the light's density ρ along the leaf comes from its profile instead
+    // of the leaf's σt: each Gauss point stands for its half of the z range, where
+    // ∫ ρ G du = ∫ ρ (G du/dz) dz ≈ (G du/dz)(z_k) ∫ ρ dz, G du/dz being what is flat in z.
+    // (ρ at the Gauss point itself, or its mean over the half in u, missed smoke beside or
+    // far from it: `tests/light_selection.rs`.)
+    let u_mid = u0 + big_h / s * 0.5 * (e - 1.0 / e);
+    let in_z = profile.map(|p| p.in_z(u0, big_h / s, u_mid));
     // Two Gauss–Legendre points in z, at z_mid ± (span/2)/√3 (weights 1).
-    for x in [-FRAC_1_SQRT_3, FRAC_1_SQRT_3] {
+    for (k, x) in [-FRAC_1_SQRT_3, FRAC_1_SQRT_3].into_iter().enumerate() {
         let ek = e * (0.5 * span * x).exp();
         let u = (u0 + big_h / s * 0.5 * (ek - 1.0 / ek)).clamp(0.0, l);
         // du = (H/s) cosh z dz.
-        let jacobian = 0.5 * span * big_h / s * 0.5 * (ek + 1.0 / ek);
-        value += fade_density(node.sigma_t, l, u) * phases.seen_from(a + dir * u) * jacobian;
+        let du_dz = big_h / s * 0.5 * (ek + 1.0 / ek);
+        let light = match in_z {
+            Some(sums) => du_dz * sums[k],
+            None => 0.5 * span * du_dz * fade_density(node.sigma_t, l, u),
+        };
+        value += light * phases.seen_from(a + dir * u);
     }
     if node.sigma_t * l > 1.0 {
         let first = 1.0 / node.sigma_t;
         let h_a = phases.off_line(a).1;
         let start = phases.seen_from(a) * asinh(first * s / h_a) / s * h_a;
-        value = value.max(fade_density(node.sigma_t, l, first) * start);
+        let density = profile.map_or_else(|| fade_density(node.sigma_t, l, first), |p| p.mean(0.0, first));
+        value = value.max(density * start);
     }
     node.weight * value
 }
@@ -814,7 +827,7 @@ mod tests {
             let r = 0.02 + 0.3 * s.next_1d();
             let (a, b) = (
                 importance(&tree.nodes[0], &rx, r),
-                flat_importance(&tree.nodes[0], &rx, r),
+                tree.flat_importance(&tree.nodes[0], &rx, r),
             );
             assert!((a - b).abs() <= 1e-5 * a.abs().max(1e-30), "case {case}: {a} vs {b}");
         }
