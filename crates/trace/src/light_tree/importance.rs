@@ -629,13 +629,12 @@ pub fn flat_importance(node: &LightTreeNode, rx: &Receiver, r: f32, profile: Opt
     for (k, x) in [-FRAC_1_SQRT_3, FRAC_1_SQRT_3].into_iter().enumerate() {
         let ek = e * (0.5 * span * x).exp();
         let u = (u0 + big_h / s * 0.5 * (ek - 1.0 / ek)).clamp(0.0, l);
+        let seen = phases.seen_from(a + dir * u);
         // du = (H/s) cosh z dz.
-        let du_dz = big_h / s * 0.5 * (ek + 1.0 / ek);
-        let light = match in_z {
-            Some(sums) => du_dz * sums[k],
-            None => 0.5 * span * du_dz * fade_density(node.sigma_t, l, u),
+        value += match in_z {
+            Some(sums) => big_h / s * 0.5 * (ek + 1.0 / ek) * sums[k] * seen,
+            None => fade_density(node.sigma_t, l, u) * seen * (0.5 * span * big_h / s * 0.5 * (ek + 1.0 / ek)),
         };
-        value += light * phases.seen_from(a + dir * u);
     }
     if node.sigma_t * l > 1.0 {
         let first = 1.0 / node.sigma_t;
