@@ -30,7 +30,8 @@
 //!   free path times the same integral over that first stretch. A VSL's leaf seen from a
 //!   camera segment gets the camera medium's phase function likewise. A flat draw weighs a
 //!   VBL leaf for a camera segment by the pair integral ∫∫ ρ F / d² itself instead
-//!   ([`flat_importance`]: F both phase functions at each pair's own direction).
+//!   ([`flat_importance`]: F both phase functions at each pair's own direction; in a density
+//!   grid ρ from the VBL's [`Profile`], not its fading).
 //!
 //! **Sampling.** A record descends from the root, choosing the left child with probability
 //! a/(a+b) of the children's importances; the product of the choices is the leaf's
