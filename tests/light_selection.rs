@@ -251,12 +251,12 @@ fn drawn_lights_match_all_pairs_in_the_furnace() {
     selection_matches_all_pairs("furnace", scene);
 }
 
-/// The fog box's medium made a plume: 16³ voxels over the box, `density` where the voxel's x
-/// index is in `xs` (the slab 0 ≤ x < 0.5 for 8..12), clear air elsewhere.
-fn plume(scene: &mut Scene, xs: std::ops::Range<u32>, density: f32) {
+/// The fog box's medium made smoke: 16³ voxels over the box, `density` in the voxels whose
+/// (x, y) indices `inside` takes, clear air elsewhere.
+fn smoke(scene: &mut Scene, density: f32, inside: impl Fn(u32, u32) -> bool) {
     let res = UVec3::splat(16);
     let values = (0..res.x * res.y * res.z)
-        .map(|i| if xs.contains(&(i % 16)) { density } else { 0.0 })
+        .map(|i| if inside(i % 16, i / 16 % 16) { density } else { 0.0 })
         .collect();
     scene.media[0].density = Some(beamlight_scene::medium::DensityGrid::new(
         res,
@@ -264,6 +264,11 @@ fn plume(scene: &mut Scene, xs: std::ops::Range<u32>, density: f32) {
         Vec3::splat(1.0),
         values,
     ));
+}
+
+/// A plume: [`smoke`] where the voxel's x index is in `xs` (the slab 0 ≤ x < 0.5 for 8..12).
+fn plume(scene: &mut Scene, xs: std::ops::Range<u32>, density: f32) {
+    smoke(scene, density, |x, _| xs.contains(&x));
 }
 
 /// Dense smoke (4× the fog box's extinction) in a slab of clear air: most VBLs cross
@@ -398,17 +403,10 @@ fn a_flat_draw_weighs_vbls_where_the_camera_ray_meets_the_medium() {
 #[test]
 fn a_flat_draw_weighs_a_vbl_where_its_light_scatters() {
     let mut scene = fog_box(4, 4, false);
-    let res = UVec3::splat(16);
-    let slab = |x: u32| (2..4).contains(&x) || (12..14).contains(&x);
-    let values = (0..res.x * res.y * res.z)
-        .map(|i| if slab(i % 16) && i / 16 % 16 < 5 { 4.0 } else { 0.0 })
-        .collect();
-    scene.media[0].density = Some(beamlight_scene::medium::DensityGrid::new(
-        res,
-        Vec3::splat(-1.0),
-        Vec3::splat(1.0),
-        values,
-    ));
+    // Two slabs, −0.75 ≤ x < −0.5 and 0.5 ≤ x < 0.75, below y = −0.375.
+    smoke(&mut scene, 4.0, |x, y| {
+        ((2..4).contains(&x) || (12..14).contains(&x)) && y < 5
+    });
     let vbl = LightSegment {
         origin: [-0.95, -0.5, 0.0],
         length: 1.9,
