@@ -1,9 +1,9 @@
 //! How `--method auto` combines its two estimators ([`crate::auto`] decides which runs when):
 //! both estimators' running sums per component ([`AutoSums`]), each one's error model
-//! (`ComponentError`: its variance, and the part of the two image means' difference their
-//! noise does not explain, credited by its sign), and the combination of the two with one
-//! weight per component, inversely proportional to the errors. The reasons for each choice
-//! are in [`crate::auto`]'s documentation.
+//! (`ComponentError`: its variance, and the part of the two estimates' difference, of the
+//! image means and pixel by pixel, their noise does not explain), and the combination of the
+//! two with one weight per component, inversely proportional to the errors. The reasons for
+//! each choice are in [`crate::auto`]'s documentation.
 use crate::{Film, Image, components::SceneFeatures, film::mean_and_variance};
 use beamlight_scene::Rgb;
 use beamlight_trace::{TraceScene, components::Component};
@@ -254,13 +254,14 @@ impl PassMeans {
 
 /// One component's error model: each estimator's variance, summed over pixels and channels
 /// with each entry's relative-error weight (1/(value² + 0.01), as `compare`'s relMSE), and the
-/// squared difference of the two image means that their noise does not explain, likewise
-/// weighted, credited by its sign (see [`ComponentError::of`]).
+/// squared difference of the two estimates that their noise does not explain (of the image
+/// means, and pixel by pixel), likewise weighted, credited by the image means' sign (see
+/// [`ComponentError::of`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct ComponentError {
     pub(crate) pt: f64,
     pub(crate) vbl: f64,
-    /// `vbl` darker than `pt`: its blur's loss of light.
+    /// `vbl`'s bias: the light its blur loses (darker than `pt`) or moves between pixels.
     pub(crate) bias2: f64,
     /// `vbl` brighter than `pt`: light the path tracer has not found yet.
     pub(crate) pt_tail2: f64,
