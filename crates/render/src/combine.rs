@@ -334,10 +334,10 @@ impl ComponentError {
         // `Lss` at 6 samples: 363 against a variance of 345, 7.8 at 64 samples), and the
         // schedule paid for path-traced samples that got 5 % of the weight. Only where `vbl`
         // blurs: its `direct` is the path tracer's first vertex (a light sample and a BSDF
-        // sample, `beamlight_trace::direct`), unbiased, and an excess there can only be noise
-        // or the path tracer's unseen tail. `caustic_sphere`'s `direct` read 250–300 against
-        // variances of 30–40 (light seen through the glass ball, found by the path tracer's
-        // rare emitter hits), and the schedule gave the path tracer 1953 samples of it.
+        // sample, `beamlight_trace::direct`), with no radius to blur with. `caustic_sphere`'s
+        // `direct` read 250–300 against variances of 30–40 (not pinned down; the path
+        // tracer's rare hits of the light through the glass ball would give it), and the
+        // schedule gave the path tracer 1953 samples of it.
         if blurred && vbl.samples >= 2 && pt.samples >= MIN_PT_SAMPLES {
             let local = local.max(0.0);
             if e.pt_tail2 > 0.0 {
