@@ -265,12 +265,11 @@ pub fn path_trace_pass(
                         continue;
                     }
                     let mut s = Sampler::new(seed, pass, pixel);
-                    let mut sum = Rgb::ZERO;
-                    pt::sample_pixel_split(ts, settings, x as u32, y as u32, w, h, &mut s, &mut |k, l| {
-                        comps[k as usize][x] += l;
-                        sum += l;
-                    });
-                    *px = sum;
+                    let split = pt::sample_pixel_components(ts, settings, x as u32, y as u32, w, h, &mut s);
+                    for (c, l) in comps.iter_mut().zip(split) {
+                        c[x] = l;
+                    }
+                    *px = split.iter().copied().sum();
                 }
             });
     } else {
