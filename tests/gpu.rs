@@ -199,15 +199,28 @@ fn explain(
 /// record). The bounds are absolute counts, not fractions, so a bug confined to a handful of
 /// records in a larger image fails as surely as in this one.
 ///
-/// What they catch: any error of 2 % or more in any single record (a sign, a missing factor, a
-/// term dropped in one branch, a stream drawn out of order in one pair); an error of 1e-3 in
-/// more than 2 records; of 1e-4 in more than 8 (a wrong constant, a lost ulp-level term that
-/// matters, a different random stream). What they cannot: a difference below 2 % confined to
-/// 2 records, or below 1e-3 in up to 8 — the size of the f32 rounding of ill-conditioned
-/// pairs on either side (see the comment in `check_kernel`).
+/// What they catch: an error of 2 % or more in two records or more (a sign, a missing factor, a
+/// term dropped in one branch, a stream drawn out of order in one pair, a result in the wrong
+/// record), or one that moves the component's total by 1e-4; an error of 1e-3 in more than 2
+/// records; of 1e-4 in more than 8 (a wrong constant, a lost ulp-level term that matters, a
+/// different random stream). What they cannot: an error confined to one record that leaves
+/// the total within 1e-4 (see below), a difference below 2 % confined to 2 records, or below
+/// 1e-3 in up to 8 — the size of the f32 rounding of ill-conditioned pairs on either side (see
+/// the comment in `check_kernel`).
+///
+/// One record per kernel may differ by more than [`MAX_RELATIVE`]: a ratio-tracking step whose
+/// sampled distance lands within f32 rounding of a majorant cell's border (the GPU's `log` is
+/// not libm's) falls on the other side on one backend, which changes the number of draws and
+/// so everything the pair draws after it. Seen December 2026 in the lumpy glossy fog box at
+/// R = 0.3 (`Lsm`, record 377, 1.45e-1, after the VBL tree's descent changed its picks): the
+/// CPU's step in the pick carrying 77 % of the record landed 7.8e-8 (relative) from a border,
+/// while no descent choice of the kernel came within 1.6e-5 of its threshold. A record written
+/// to the wrong place moves its value between two records, so two differ: that still fails,
+/// as does any error in two records or more, and the component's total must agree to 1e-4.
 const MAX_BEYOND_1E4: usize = 8;
 const MAX_BEYOND_1E3: usize = 2;
 const MAX_RELATIVE: f64 = 2e-2;
+const MAX_OUTLIERS: usize = 1;
 
 /// One kernel's results against the CPU's, record by record: at most [`MAX_BEYOND_1E4`] records
 /// beyond a relative difference of 1e-4, [`MAX_BEYOND_1E3`] beyond 1e-3, none beyond
@@ -262,12 +275,13 @@ fn check_kernel(name: &str, k: GatherKernel, gpu: &[Rgb], cpu: &[Rgb], explain: 
     // of θ by x²/h, or a ratio-tracking step whose comparison against a cell boundary
     // flips and changes the number of draws. Neither shifts a component's total.
     assert!(
-        beyond(1e-4) <= MAX_BEYOND_1E4 && beyond(1e-3) <= MAX_BEYOND_1E3 && worst.0 <= MAX_RELATIVE,
+        beyond(1e-4) <= MAX_BEYOND_1E4 && beyond(1e-3) <= MAX_BEYOND_1E3 && beyond(MAX_RELATIVE) <= MAX_OUTLIERS,
         "{name} {}: {} records beyond 1e-4 (at most {MAX_BEYOND_1E4}), {} beyond 1e-3 (at most \
-         {MAX_BEYOND_1E3}), worst {:.2e} (at most {MAX_RELATIVE:.0e}): record {}: GPU {:?} vs CPU {:?}; {}",
+         {MAX_BEYOND_1E3}), {} beyond {MAX_RELATIVE:.0e} (at most {MAX_OUTLIERS}), worst {:.2e}: record {}: GPU {:?} vs CPU {:?}; {}",
         k.name(),
         beyond(1e-4),
         beyond(1e-3),
+        beyond(MAX_RELATIVE),
         worst.0,
         worst.1,
         gpu[worst.1],

@@ -331,7 +331,12 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
             return node.weight * f * max(max(closest, start), floor);
         }
         let cp = c - p;
-        let falloff = 1.0 / max(max(dot_glam(cp, cp), rb * rb), r * r);
+        // Points: floored at rb²; segment lights (σt > 0) at rb·R (see the CPU twin).
+        var floor2 = rb * rb;
+        if node.sigma_t > 0.0 {
+            floor2 = rb * r;
+        }
+        let falloff = 1.0 / max(max(dot_glam(cp, cp), floor2), r * r);
         return node.weight * f * max(cos_bound, 1e-3) * falloff;
     }
     if is_segment {
