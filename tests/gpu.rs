@@ -223,8 +223,8 @@ const MAX_RELATIVE: f64 = 2e-2;
 const MAX_OUTLIERS: usize = 1;
 
 /// One kernel's results against the CPU's, record by record: at most [`MAX_BEYOND_1E4`] records
-/// beyond a relative difference of 1e-4, [`MAX_BEYOND_1E3`] beyond 1e-3, none beyond
-/// [`MAX_RELATIVE`], and the component's total to 1e-4. Every record beyond 1e-4 is printed
+/// beyond a relative difference of 1e-4, [`MAX_BEYOND_1E3`] beyond 1e-3, [`MAX_OUTLIERS`]
+/// beyond [`MAX_RELATIVE`], and the component's total to 1e-4. Every record beyond 1e-4 is printed
 /// with `explain(record)` (its geometry and conditioning).
 fn check_kernel(name: &str, k: GatherKernel, gpu: &[Rgb], cpu: &[Rgb], explain: &dyn Fn(usize) -> String) {
     assert_eq!(gpu.len(), cpu.len(), "{name} {}", k.name());
