@@ -332,10 +332,7 @@ fn light_importance(node: LightTreeNode, rx: Receiver, r_in: f32) -> f32 {
         }
         let cp = c - p;
         // Points: floored at rb²; segment lights (σt > 0) at rb·R (see the CPU twin).
-        var floor2 = rb * rb;
-        if node.sigma_t > 0.0 {
-            floor2 = rb * r;
-        }
+        let floor2 = select(rb * rb, rb * r, node.sigma_t > 0.0);
         let falloff = 1.0 / max(max(dot_glam(cp, cp), floor2), r * r);
         return node.weight * f * max(cos_bound, 1e-3) * falloff;
     }
